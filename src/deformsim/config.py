@@ -1,0 +1,244 @@
+"""The one configuration model: every default of every stage lives here.
+
+A run is described by a YAML file (see ``configs/``) validated against :class:`Config`. Presets are YAML
+files shipped in ``deformsim/presets``; ``quick`` is the default, ``paper`` reproduces the paper.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from deformsim.errors import UserError
+
+PRESET_DIR = Path(__file__).parent / "presets"
+
+Range = tuple[float, float]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+def _check_range(v: Range, lo: float | None = None, hi: float | None = None) -> Range:
+    a, b = v
+    if a > b:
+        raise ValueError(f"range {list(v)} is empty (min > max)")
+    if lo is not None and a < lo:
+        raise ValueError(f"range {list(v)} goes below {lo}")
+    if hi is not None and b > hi:
+        raise ValueError(f"range {list(v)} goes above {hi}")
+    return v
+
+
+class ObjectConfig(_Model):
+    """What is rendered: the built-in can or a user mesh, and its deformation spec."""
+
+    mesh: Path | None = Field(None, description="CAD mesh (stl/obj/ply/glb/gltf/fbx); None = built-in can")
+    spec: Path | None = Field(None, description="deformation spec YAML; None = built-in can spec")
+
+
+class CameraConfig(_Model):
+    """Four cameras, one per azimuth quadrant, all tracking the object (paper, section III)."""
+
+    azimuth_quadrants: list[Range] = [(20, 70), (110, 160), (200, 250), (290, 340)]
+    polar: Range = (50.0, 70.0)
+    radius: Range = (0.30, 0.45)
+    lens_mm: float = Field(50.0, gt=1)
+
+    @field_validator("polar")
+    @classmethod
+    def _polar(cls, v: Range) -> Range:
+        return _check_range(v, 0, 180)
+
+    @field_validator("radius")
+    @classmethod
+    def _radius(cls, v: Range) -> Range:
+        _check_range(v, 0)
+        if v[0] <= 0:
+            raise ValueError("camera radius must be positive")
+        return v
+
+    @field_validator("azimuth_quadrants")
+    @classmethod
+    def _quadrants(cls, v: list[Range]) -> list[Range]:
+        if not v:
+            raise ValueError("at least one camera (azimuth range) is needed")
+        return [_check_range(r, -360, 720) for r in v]
+
+
+class LightingConfig(_Model):
+    """HDRI world lighting: a random EXR at a random rotation."""
+
+    hdri_dir: Path | None = Field(None, description="folder of .exr/.hdr files; None = Blender's studiolights")
+    rotation: Range = (0.0, 360.0)
+    strength: Range = (0.8, 1.4)
+
+    @field_validator("strength")
+    @classmethod
+    def _strength(cls, v: Range) -> Range:
+        return _check_range(v, 0)
+
+
+class DeformConfig(_Model):
+    """How deformed samples mix the spec's keys (paper, section III-B)."""
+
+    families: tuple[int, int] = (3, 5)
+    extent: Range = (0.7, 1.5)
+    displacement: Range = (0.6, 1.0)
+
+    @field_validator("families")
+    @classmethod
+    def _families(cls, v: tuple[int, int]) -> tuple[int, int]:
+        if v[0] < 1 or v[0] > v[1]:
+            raise ValueError(f"families range {list(v)} must satisfy 1 <= min <= max")
+        return v
+
+    @field_validator("extent", "displacement")
+    @classmethod
+    def _pos(cls, v: Range) -> Range:
+        return _check_range(v, 0)
+
+
+class RenderConfig(_Model):
+    """Cycles settings."""
+
+    resolution: int = Field(128, ge=16, le=4096)
+    samples: int = Field(16, ge=1, le=4096)
+    denoise: bool = True
+    device: Literal["auto", "cpu", "gpu"] = "auto"
+    threads: int = Field(0, ge=0, description="Cycles threads per worker; 0 = cores / workers")
+    render_backgrounds: bool = Field(
+        False,
+        description="render the black and green variants with Cycles instead of compositing them over the "
+        "exact alpha (identical for opaque objects, 3x slower)",
+    )
+
+
+class GenerateConfig(_Model):
+    """Dataset size, seed and the worker pool."""
+
+    n: int = Field(64, ge=1, description="number of images (intact + deformed)")
+    seed: int = 0
+    intact_fraction: float = Field(0.5, ge=0, le=1)
+    workers: int = Field(0, ge=0, description="render processes; 0 = automatic")
+    recycle_every: int = Field(200, ge=1, description="restart a worker after this many images")
+    max_retries: int = Field(2, ge=0)
+    backend: Literal["local", "ray"] = "local"
+    address: str | None = None
+    gather: bool = False
+    preview: int = Field(16, ge=0, description="images on the contact sheet")
+
+
+class CompositeConfig(_Model):
+    """Chroma-key matting and compositing onto backgrounds."""
+
+    matte: Literal["alpha", "chroma"] = "chroma"
+    key_color: tuple[int, int, int] = (0, 255, 0)
+    tolerance: int = Field(60, ge=0, le=255)
+    close_kernel: int = Field(5, ge=0)
+    open_kernel: int = Field(3, ge=0)
+    erode_kernel: int = Field(3, ge=0)
+    backgrounds: Path | None = Field(None, description="folder of photos; None = procedural backgrounds")
+    scale_jitter: Range = (1.0, 1.3)
+    flip: bool = True
+    workers: int = Field(0, ge=0)
+    variants: list[str] = ["black", "backgrounds"]
+
+    @field_validator("scale_jitter")
+    @classmethod
+    def _scale(cls, v: Range) -> Range:
+        _check_range(v, 1.0)
+        return v
+
+
+class TrainConfig(_Model):
+    """The condition-assessment model (paper, section IV)."""
+
+    backbone: Literal["vgg16", "mobilenet_v2"] = "vgg16"
+    weights: Literal["imagenet", "offline", "none"] = "imagenet"
+    image_size: int = Field(224, ge=32)
+    hidden: tuple[int, int] = (256, 128)
+    dropout: float = Field(0.5, ge=0, lt=1)
+    lr: float = Field(1e-3, gt=0)
+    batch_size: int = Field(32, ge=1)
+    epochs: int = Field(15, ge=1)
+    split: float = Field(0.8, gt=0, lt=1)
+    augment: bool = False
+    cache_features: bool = True
+    threshold: float = Field(0.5, gt=0, lt=1)
+    variants: list[str] = ["black", "backgrounds"]
+    seed: int = 0
+
+
+class Config(_Model):
+    """A whole run: object, rig sampling, scene, rendering, compositing and training."""
+
+    object: ObjectConfig = ObjectConfig()
+    camera: CameraConfig = CameraConfig()
+    lighting: LightingConfig = LightingConfig()
+    deform: DeformConfig = DeformConfig()
+    render: RenderConfig = RenderConfig()
+    generate: GenerateConfig = GenerateConfig()
+    composite: CompositeConfig = CompositeConfig()
+    train: TrainConfig = TrainConfig()
+
+    @model_validator(mode="after")
+    def _balanced(self) -> "Config":
+        views = len(self.camera.azimuth_quadrants)
+        if self.generate.n % views:
+            raise ValueError(f"generate.n={self.generate.n} must be a multiple of the {views} cameras")
+        return self
+
+
+def preset_path(name: str) -> Path:
+    return PRESET_DIR / f"{name}.yaml"
+
+
+def load_config(source: str | Path | None = None, overrides: dict | None = None) -> Config:
+    """Load a config from a YAML path or preset name (default ``quick``), apply dotted overrides.
+
+    ``overrides`` maps dotted keys (``"render.resolution"``) to values; ``None`` values are ignored.
+    Raises :class:`UserError` with one line naming the bad file or value.
+    """
+    source = source or "quick"
+    path = Path(source)
+    if not path.exists() and preset_path(str(source)).exists():
+        path = preset_path(str(source))
+    if not path.is_file():
+        raise UserError(f"config file not found: {source} (presets: {', '.join(list_presets())})")
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as exc:
+        raise UserError(f"config {path} is not valid YAML: {str(exc).splitlines()[0]}") from None
+    if not isinstance(data, dict):
+        raise UserError(f"config {path} must be a mapping of sections, got {type(data).__name__}")
+    for key, value in (overrides or {}).items():
+        if value is None:
+            continue
+        node = data
+        *parents, leaf = key.split(".")
+        for p in parents:
+            node = node.setdefault(p, {})
+        node[leaf] = value
+    return validate_config(data, str(path))
+
+
+def validate_config(data: dict, origin: str = "config") -> Config:
+    try:
+        return Config.model_validate(data)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        where = ".".join(str(p) for p in err["loc"]) or "config"
+        raise UserError(f"{origin}: invalid {where}: {err['msg']} (got {err.get('input')!r})") from None
+
+
+def list_presets() -> list[str]:
+    return sorted(p.stem for p in PRESET_DIR.glob("*.yaml"))
+
+
+def dump_config(cfg: Config) -> str:
+    return yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False)

@@ -1,0 +1,183 @@
+"""Everything random about a sample, drawn in pure Python (no Blender).
+
+A *sample* is one scene state (object deformation, openings, label, lighting) seen by every camera, so
+it yields one image per camera. ``sample_params(i, seed, ...)`` depends only on ``(seed, i)``: samples can
+be drawn in any order, by any worker, and a resumed run draws the same ones.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from deformsim.config import Config
+from deformsim.spec import Spec
+
+
+@dataclass(frozen=True)
+class CameraParams:
+    azimuth: float  # degrees
+    polar: float  # degrees from the up axis
+    radius: float  # metres (for the can; scaled with the object's size otherwise)
+
+
+@dataclass(frozen=True)
+class LabelParams:
+    """The can's printed label design (see :mod:`deformsim.label`)."""
+
+    hue: float
+    saturation: float
+    value: float
+    accent_hue: float
+    bands: int
+    band_seed: int
+    word: str
+
+
+@dataclass(frozen=True)
+class MaterialParams:
+    """A user mesh's surface colour and roughness."""
+
+    color: tuple[float, float, float]
+    roughness: float
+
+
+@dataclass(frozen=True)
+class SampleParams:
+    index: int
+    seed: int
+    label: str  # "intact" | "deformed"
+    families: tuple[str, ...]
+    keys: dict[str, float]  # lattice shape-key values, every key of the spec
+    displacement: dict[str, float]  # crinkle shape-key values, every texture of the spec
+    seal: float
+    tab: float
+    hdri: str
+    hdri_rotation: float  # degrees about the up axis
+    hdri_strength: float
+    cameras: tuple[CameraParams, ...]
+    design: LabelParams | None = None
+    material: MaterialParams | None = None
+    extent: float = 0.0
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def deformed(self) -> bool:
+        return self.label == "deformed"
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "SampleParams":
+        d = dict(d)
+        d["families"] = tuple(d["families"])
+        d["cameras"] = tuple(CameraParams(**c) for c in d["cameras"])
+        d["design"] = LabelParams(**d["design"]) if d.get("design") else None
+        if d.get("material"):
+            m = d["material"]
+            d["material"] = MaterialParams(color=tuple(m["color"]), roughness=m["roughness"])
+        return cls(**d)
+
+
+BRAND_WORDS = ("FIZZ", "COLA", "ZEST", "NOVA", "LIME", "BOLT", "AURA", "PEAK", "WAVE", "SODA", "BREW", "MAX")
+
+
+def label_for(index: int, intact_fraction: float) -> str:
+    """Deterministic, evenly spread labels: any prefix of samples is as balanced as possible."""
+    intact = int(np.floor((index + 1) * intact_fraction)) - int(np.floor(index * intact_fraction))
+    return "intact" if intact else "deformed"
+
+
+def rng_for(seed: int, index: int) -> np.random.Generator:
+    return np.random.default_rng([seed, index])
+
+
+def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[str]) -> SampleParams:
+    """Draw sample ``index`` of a run seeded ``seed``. ``hdris`` are the available HDRI names."""
+    if not hdris:
+        raise ValueError("no HDRI available")
+    rng = rng_for(seed, index)
+    label = label_for(index, cfg.generate.intact_fraction)
+    keys = {k: 0.0 for k in spec.key_names}
+    disp = {t: 0.0 for t in spec.texture_names}
+    families: tuple[str, ...] = ()
+    extent = 0.0
+
+    # Always draw the deformation so that every later draw uses the same stream position for both labels.
+    d = cfg.deform
+    lo, hi = d.families
+    hi = min(hi, len(spec.families))
+    k = int(rng.integers(min(lo, hi), hi + 1))
+    chosen = sorted(rng.choice(len(spec.families), size=k, replace=False).tolist())
+    fam_w = rng.uniform(0.05, 1.0, size=k)
+    draw_extent = float(rng.uniform(*d.extent))
+    fam_w = fam_w / fam_w.sum() * draw_extent
+    mixes = [rng.dirichlet(np.ones(len(spec.families[f].keys))) for f in chosen]
+    disp_w = rng.uniform(0.05, 1.0, size=len(disp))
+    disp_scale = float(rng.uniform(*d.displacement))
+    if label == "deformed":
+        families = tuple(spec.families[f].name for f in chosen)
+        extent = draw_extent
+        for f, w, mix in zip(chosen, fam_w, mixes):
+            for key, m in zip(spec.families[f].keys, mix):
+                keys[key.name] = float(w * m)
+        if disp:
+            disp_w = disp_w / disp_w.sum() * disp_scale
+            disp = {t: float(v) for t, v in zip(disp, disp_w)}
+
+    seal = float(rng.uniform(0, 1)) if spec.openings.seal else 0.0
+    tab = float(seal * rng.uniform(0, 1)) if spec.openings.tab else 0.0
+
+    lighting = cfg.lighting
+    hdri = hdris[int(rng.integers(len(hdris)))]
+    rotation = float(rng.uniform(*lighting.rotation))
+    strength = float(rng.uniform(*lighting.strength))
+
+    cam = cfg.camera
+    cameras = tuple(
+        CameraParams(
+            azimuth=float(rng.uniform(*quad)),
+            polar=float(rng.uniform(*cam.polar)),
+            radius=float(rng.uniform(*cam.radius)),
+        )
+        for quad in cam.azimuth_quadrants
+    )
+
+    design = None
+    if spec.builtin == "can":
+        design = LabelParams(
+            hue=float(rng.uniform(0, 1)),
+            saturation=float(rng.uniform(0.35, 1.0)),
+            value=float(rng.uniform(0.25, 0.95)),
+            accent_hue=float(rng.uniform(0, 1)),
+            bands=int(rng.integers(1, 5)),
+            band_seed=int(rng.integers(2**31)),
+            word=BRAND_WORDS[int(rng.integers(len(BRAND_WORDS)))],
+        )
+    material = None
+    if spec.material is not None:
+        lo_c, hi_c = spec.material.color
+        material = MaterialParams(
+            color=tuple(float(rng.uniform(a, b)) for a, b in zip(lo_c, hi_c)),
+            roughness=float(rng.uniform(*spec.material.roughness)),
+        )
+
+    return SampleParams(
+        index=index,
+        seed=seed,
+        label=label,
+        families=families,
+        keys=keys,
+        displacement=disp,
+        seal=seal,
+        tab=tab,
+        hdri=hdri,
+        hdri_rotation=rotation,
+        hdri_strength=strength,
+        cameras=cameras,
+        design=design,
+        material=material,
+        extent=extent,
+    )
