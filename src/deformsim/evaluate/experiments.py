@@ -1,0 +1,185 @@
+"""The paper's Table II: for each training variant, a held-out synthetic test and a sim-to-real test.
+
+(a) *split*: a seeded split of the variant's images, stratified by label and grouped by ``sample`` (the
+views of one scene state never straddle train and test); train on one part, test on the other.
+(b) *real* (with a real folder): train on all of the variant's images, test on the real photographs.
+Models go to ``OUT/models/<variant>_{split,full}/``; everything measured goes to ``OUT/metrics.json``.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from deformsim.atomic import write_bytes, write_json
+from deformsim.config import TrainConfig
+from deformsim.dataset import list_variants, variant_table
+from deformsim.errors import UserError
+from deformsim.evaluate.metrics import compute_metrics
+
+EXAMPLES_PER_CLASS = 3
+
+
+def grouped_split(table: pd.DataFrame, train_fraction: float, seed: int) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Split ``table`` into (train, test) by whole samples, keeping each label's share of samples.
+
+    Each label contributes ``round((1 - train_fraction) * its samples)`` samples to the test part, at least
+    one and never all. Raises :class:`UserError` when a label has fewer than two samples or a sample's views
+    disagree on the label.
+    """
+    labels = table.groupby("sample")["y"].agg(["min", "max"])
+    mixed = labels.index[labels["min"] != labels["max"]]
+    if len(mixed):
+        raise UserError(f"sample {mixed[0]} has views with different labels")
+    rng = np.random.default_rng(seed)
+    test: list = []
+    for y in (0, 1):
+        ids = np.sort(labels.index[labels["min"] == y].to_numpy())
+        if len(ids) < 2:
+            raise UserError(f"a split needs at least 2 samples of each class, got {len(ids)} with y={y}")
+        n_test = min(max(1, round(len(ids) * (1 - train_fraction))), len(ids) - 1)
+        test.extend(rng.permutation(ids)[:n_test].tolist())
+    in_test = table["sample"].isin(test)
+    return table[~in_test].reset_index(drop=True), table[in_test].reset_index(drop=True)
+
+
+def _counts(df: pd.DataFrame) -> dict:
+    out = {"n": len(df), "n_deformed": int(df["y"].sum())}
+    if "sample" in df:
+        out["n_samples"] = int(df["sample"].nunique())
+    return out
+
+
+def _rel(path: Path, root: Path) -> str:
+    return os.path.relpath(path, root)
+
+
+def _train_and_test(train_df, test_df, cfg: TrainConfig, model_dir: Path, out_dir: Path, progress: bool) -> dict:
+    from deformsim.learn import predict, train
+
+    result = train.fit(train_df, cfg, model_dir, progress=progress)
+    t0 = time.perf_counter()
+    prob = predict.load(result.model_path).predict_proba(list(test_df["path"]))
+    predict_seconds = time.perf_counter() - t0
+    return {
+        "train": _counts(train_df),
+        "test": _counts(test_df),
+        "model": _rel(Path(result.model_path), out_dir),
+        "weights": result.weights,
+        "history": result.history,
+        "train_seconds": result.seconds,
+        "predict_seconds": predict_seconds,
+        "metrics": compute_metrics(test_df["y"].to_numpy(), prob, cfg.threshold),
+        "predictions": [
+            {"path": p, "y": int(y), "prob": float(q)} for p, y, q in zip(test_df["path"], test_df["y"], prob)
+        ],
+    }
+
+
+def _examples(table: pd.DataFrame, rng: np.random.Generator) -> list[dict]:
+    out = []
+    for y in (0, 1):
+        rows = table[table["y"] == y]
+        pick = rng.choice(len(rows), size=min(EXAMPLES_PER_CLASS, len(rows)), replace=False)
+        out += [{"path": rows["path"].iloc[i], "y": y} for i in sorted(pick)]
+    return out
+
+
+def _load_tables(data_root: Path, cfg: TrainConfig) -> tuple[dict[str, pd.DataFrame], list[str]]:
+    available = list_variants(data_root)
+    chosen = [v for v in cfg.variants if v in available]
+    if not chosen:
+        raise UserError(f"none of the variants {cfg.variants} is in {data_root} (have: {', '.join(available)})")
+    tables = {v: variant_table(data_root, v) for v in chosen}
+    for v, t in tables.items():
+        if t["y"].nunique() < 2:
+            raise UserError(f"variant '{v}' has only {t['label'].iloc[0]} images: training needs both classes")
+        missing = [p for p in t["path"] if not os.path.isfile(p)]
+        if missing:
+            raise UserError(f"variant '{v}': {len(missing)} images are missing, e.g. {missing[0]}")
+    return tables, [v for v in cfg.variants if v not in available]
+
+
+def _summary(entry: dict) -> dict:
+    keys = ("accuracy", "f1", "precision", "recall")
+    return {
+        part: ({k: entry[part]["metrics"][k] for k in keys} if entry.get(part, {}).get("metrics") else None)
+        for part in ("split", "real")
+    }
+
+
+def run_experiments(
+    data_root: str | Path, cfg: TrainConfig, out_dir: str | Path, real_dir: str | Path | None = None,
+    progress: bool = True,
+) -> dict:
+    """Run Table II for every variant of ``cfg.variants`` present in ``data_root``; write ``metrics.json``."""
+    from deformsim.evaluate import pca
+    from deformsim.learn import data as learn_data
+    from deformsim.learn import predict
+
+    t_start = time.perf_counter()
+    data_root, out_dir = Path(data_root), Path(out_dir)
+    tables, missing = _load_tables(data_root, cfg)
+    real = learn_data.real_table(real_dir) if real_dir is not None else None
+    rng = np.random.default_rng(cfg.seed)
+
+    variants: dict[str, dict] = {}
+    for v, table in tables.items():
+        entry: dict = {"n_images": len(table), "n_samples": int(table["sample"].nunique()),
+                       "examples": _examples(table, rng)}
+        try:
+            train_df, test_df = grouped_split(table, cfg.split, cfg.seed)
+        except UserError as exc:
+            entry["split"] = {"skipped": str(exc)}
+        else:
+            _log(progress, f"{v}: training on {len(train_df)} images, testing on {len(test_df)} held out")
+            model_dir = out_dir / "models" / f"{v}_split"
+            entry["split"] = _train_and_test(train_df, test_df, cfg, model_dir, out_dir, progress)
+            write_json(model_dir / "split.json", {"train": list(train_df["id"]), "test": list(test_df["id"])})
+        if real is not None:
+            _log(progress, f"{v}: training on all {len(table)} images, testing on {len(real)} real")
+            entry["real"] = _train_and_test(table, real, cfg, out_dir / "models" / f"{v}_full", out_dir, progress)
+        entry["summary"] = _summary(entry)
+        variants[v] = entry
+
+    _log(progress, "PCA plots")
+    domains = {f"synthetic {v}": t for v, t in tables.items()}
+    if real is not None:
+        domains["real"] = real
+    plots = {"pca_pixels": "pca_pixels.png", "pca_features": {}}
+    write_bytes(out_dir / plots["pca_pixels"], pca.pixel_pca_png(domains, seed=cfg.seed))
+    for v, entry in variants.items():
+        part = entry.get("real") or entry["split"]
+        if "model" not in part:
+            continue
+        name = f"pca_features_{v}.png"
+        predictor = predict.load(out_dir / part["model"])
+        write_bytes(out_dir / name, pca.feature_pca_png(predictor, domains, title=f"model trained on {v}",
+                                                        seed=cfg.seed))
+        plots["pca_features"][v] = name
+
+    metrics = {
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "data_root": str(data_root.resolve()),
+        "real_dir": str(Path(real_dir).resolve()) if real_dir is not None else None,
+        "real": _counts(real) if real is not None else None,
+        "settings": cfg.model_dump(mode="json"),
+        "missing_variants": missing,
+        "variants": variants,
+        "plots": plots,
+        "seconds": time.perf_counter() - t_start,
+    }
+    write_json(out_dir / "metrics.json", metrics)
+    return metrics
+
+
+def _log(progress: bool, message: str) -> None:
+    if progress:
+        from rich.console import Console
+
+        Console(stderr=True).print(f"[bold cyan]evaluate[/] {message}")

@@ -1,0 +1,41 @@
+"""Shared fixtures. Rendering happens in worker subprocesses; the test process never imports bpy."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "src"))
+SHARED = ROOT.parent / "shared" / "data"
+
+TINY = {"generate.n": 8, "render.resolution": 64, "render.samples": 4, "generate.seed": 3}
+
+
+@pytest.fixture(scope="session")
+def tiny_dataset(tmp_path_factory) -> Path:
+    """A dataset rendered by ``deformsim generate``: 8 images (4 intact, 4 deformed), 64 px."""
+    from deformsim.config import load_config
+    from deformsim.generate import generate
+
+    out = tmp_path_factory.mktemp("tiny") / "data"
+    generate(load_config("quick", TINY), out, progress=False)
+    return out
+
+
+@pytest.fixture(scope="session")
+def backgrounds_dir() -> Path:
+    path = SHARED / "backgrounds"
+    if not path.is_dir():
+        pytest.skip(f"shared backgrounds not found at {path}")
+    return path
+
+
+@pytest.fixture(scope="session")
+def real_cans_dir() -> Path:
+    path = SHARED / "real_cans_dev"
+    if not path.is_dir():
+        pytest.skip(f"shared real photos not found at {path}")
+    return path
