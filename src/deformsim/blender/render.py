@@ -1,0 +1,119 @@
+"""Render one sample: set the rig, label or material, world and cameras; write rgba, black and green PNGs.
+
+``rgba`` is Cycles' exact-alpha render (transparent film). ``black`` and ``green`` are composited over it
+in 8-bit straight alpha (rgb*a + C*(1-a)), or, with ``render.render_backgrounds``, rendered by Cycles with
+the world showing that colour to camera rays only.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import bpy
+import numpy as np
+from PIL import Image
+
+from deformsim.atomic import atomic_path
+from deformsim.blender import cameras as cams
+from deformsim.blender.rig import Rig
+from deformsim.blender.world import World
+from deformsim.config import Config
+from deformsim.layout import Layout, image_id
+from deformsim.sampling import SampleParams
+from deformsim.spec import Spec
+
+BACKGROUNDS = {"black": (0, 0, 0), "green": (0, 255, 0)}  # sRGB 8-bit; linear green (0, 1, 0) is the same
+
+
+@dataclass
+class RenderContext:
+    """Everything the worker built once and reuses for every sample."""
+
+    cfg: Config
+    spec: Spec
+    scene: object
+    obj: object
+    rig: Rig
+    world: World
+    cameras: list
+    target: tuple[float, float, float]  # bounding-box centre the cameras aim at
+    camera_scale: float = 1.0
+    materials: object = None  # the deformsim.blender.materials module, when present
+
+
+def composite(rgba: np.ndarray, color: tuple[int, int, int]) -> np.ndarray:
+    """Straight-alpha RGBA (uint8) over a flat colour, rounded to nearest: an RGB uint8 image."""
+    a = rgba[..., 3:4].astype(np.uint32)
+    rgb = rgba[..., :3].astype(np.uint32)
+    c = np.asarray(color, dtype=np.uint32)
+    return ((rgb * a + c * (255 - a) + 127) // 255).astype(np.uint8)
+
+
+def _save(path, array: np.ndarray) -> None:
+    with atomic_path(path) as tmp:
+        Image.fromarray(array).save(tmp, format="PNG")
+
+
+def _render_to_array(scene, target: Path) -> tuple[np.ndarray, float]:
+    """Render the scene's camera into a temporary PNG beside ``target``; return (uint8 pixels, seconds)."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.render.", suffix=".png", dir=target.parent)
+    os.close(fd)
+    try:
+        scene.render.filepath = tmp
+        t0 = time.perf_counter()
+        bpy.ops.render.render(write_still=True)
+        seconds = time.perf_counter() - t0
+        with Image.open(tmp) as im:
+            pixels = np.array(im.convert("RGBA" if scene.render.film_transparent else "RGB"))
+    finally:
+        Path(tmp).unlink(missing_ok=True)
+    return pixels, seconds
+
+
+def apply_state(ctx: RenderContext, p: SampleParams) -> None:
+    """Put the scene in sample ``p``'s state (deformation, openings, surface, lighting)."""
+    ctx.rig.set(p.keys, p.displacement, p.seal, p.tab)
+    if p.design is not None and ctx.materials is not None:
+        ctx.materials.set_label(ctx.obj, p.design)
+    if p.material is not None and ctx.materials is not None:
+        ctx.materials.apply_material(ctx.obj, ctx.spec.material, p.material)
+    ctx.world.set(p.hdri, p.hdri_rotation, p.hdri_strength)
+
+
+def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> list[float]:
+    """Render every camera of sample ``p``; return Cycles' render seconds per camera."""
+    if len(p.cameras) != len(ctx.cameras):
+        raise ValueError(f"sample {p.index} has {len(p.cameras)} cameras, the scene {len(ctx.cameras)}")
+    apply_state(ctx, p)
+    scene = ctx.scene
+    seconds = []
+    for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
+        cams.place(cam, cp, ctx.target, ctx.camera_scale)
+        scene.camera = cam
+        iid = image_id(p.index, c)
+        rgba, t = _render_to_array(scene, layout.image("rgba", iid))
+        _save(layout.image("rgba", iid), rgba)
+        for kind, color in BACKGROUNDS.items():
+            if ctx.cfg.render.render_backgrounds:
+                img, dt = _render_background(ctx, layout.image(kind, iid), color)
+                t += dt
+            else:
+                img = composite(rgba, color)
+            _save(layout.image(kind, iid), img)
+        seconds.append(t)
+    return seconds
+
+
+def _render_background(ctx: RenderContext, target: Path, color: tuple[int, int, int]) -> tuple[np.ndarray, float]:
+    scene = ctx.scene
+    ctx.world.set_camera_color(tuple(v / 255 for v in color))  # 0 and 255 only: sRGB = linear
+    scene.render.film_transparent = False
+    try:
+        return _render_to_array(scene, target)
+    finally:
+        scene.render.film_transparent = True

@@ -1,0 +1,156 @@
+"""Render worker: ``python -m deformsim.blender.worker``, driven by :class:`deformsim.worker_client.WorkerProcess`.
+
+JSON lines on stdin, one reply line each on the real stdout (Blender's own prints go to stderr):
+
+- ``{"setup": {"config": {...}, "spec_path": str|null, "out": str, "threads": int}}`` builds the scene
+  once -> ``{"ready": true, "device": str, "camera_scale": float, "object_size": [dx, dy, dz], "pid": int}``
+- ``{"render": SampleParams.to_dict()}`` -> ``{"done": index, "render_seconds": [...]}`` or
+  ``{"error": index, "message": str, "traceback": str}`` (the worker lives on)
+- ``{"quit": true}`` -> exit 0 (so does the end of stdin)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+import traceback
+
+REFERENCE_SIZE = 0.122  # the built-in can's height (m): camera radii are given for it
+
+
+def _protocol_stream():
+    """Keep the real stdout for replies and point fd 1 (Blender's prints) at stderr."""
+    proto = os.fdopen(os.dup(1), "w", buffering=1)
+    os.dup2(2, 1)
+    return proto
+
+
+def _log(msg: str) -> None:
+    print(f"[worker {os.getpid()} {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
+
+
+def setup(msg: dict):
+    """Build the scene once: object, materials, rig, world, cameras, Cycles. Returns (ctx, layout, reply)."""
+    import bpy
+    import numpy as np
+
+    from deformsim.blender import scene as scn
+    from deformsim.blender.cameras import make_cameras
+    from deformsim.blender.render import RenderContext
+    from deformsim.blender.rig import build_rig, mesh_bounds
+    from deformsim.blender.world import World
+    from deformsim.config import validate_config
+    from deformsim.layout import Layout
+    from deformsim.spec import load_spec
+
+    cfg = validate_config(msg["config"], "worker config")
+    spec = load_spec(msg.get("spec_path"))
+    scn.reset()
+    scene = bpy.context.scene
+    materials = _materials_module()
+    if cfg.object.mesh is None:
+        try:  # TEMP until can.py lands
+            from deformsim.blender import can
+        except ImportError:
+            from deformsim.blender import _devcan as can
+
+        obj = can.build_can()
+        if materials is not None:
+            materials.can_materials(obj)
+    else:
+        from deformsim.blender.mesh_import import import_mesh
+
+        obj = import_mesh(cfg.object.mesh, spec)
+    lo, hi = mesh_bounds(obj)
+    size = hi - lo
+    camera_scale = 1.0 if cfg.object.mesh is None else float(size.max() / REFERENCE_SIZE)
+    rig = build_rig(obj, spec)
+    world = World(scene, cfg.lighting.hdri_dir)
+    cameras = make_cameras(scene, len(cfg.camera.azimuth_quadrants), cfg.camera.lens_mm, camera_scale)
+    device = scn.configure_cycles(scene, cfg.render, int(msg.get("threads") or cfg.render.threads))
+    ctx = RenderContext(
+        cfg=cfg,
+        spec=spec,
+        scene=scene,
+        obj=obj,
+        rig=rig,
+        world=world,
+        cameras=cameras,
+        target=tuple(float(v) for v in (lo + hi) / 2),
+        camera_scale=camera_scale,
+        materials=materials,
+    )
+    reply = {
+        "ready": True,
+        "device": device,
+        "camera_scale": camera_scale,
+        "object_size": [float(v) for v in np.round(size, 6)],
+        "pid": os.getpid(),
+    }
+    return ctx, Layout(msg["out"]), reply
+
+
+def _materials_module():
+    try:
+        from deformsim.blender import materials
+    except ImportError:
+        return None
+    return materials
+
+
+def render(ctx, layout, params: dict) -> dict:
+    import bpy
+
+    from deformsim.blender.render import render_sample
+    from deformsim.sampling import SampleParams
+
+    p = SampleParams.from_dict(params)
+    seconds = render_sample(ctx, p, layout)
+    bpy.data.orphans_purge(do_local_ids=True, do_linked_ids=True, do_recursive=True)
+    return {"done": p.index, "render_seconds": seconds}
+
+
+def main() -> int:
+    proto = _protocol_stream()
+
+    def reply(obj: dict) -> None:
+        proto.write(json.dumps(obj) + "\n")
+        proto.flush()
+
+    ctx = layout = None
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        msg = json.loads(line)
+        if msg.get("quit"):
+            break
+        if "setup" in msg:
+            try:
+                ctx, layout, ready = setup(msg["setup"])
+            except Exception as exc:
+                _log(traceback.format_exc())
+                reply({"error": None, "message": f"setup failed: {exc}", "traceback": traceback.format_exc()})
+                return 1
+            _log(f"ready on {ready['device']}")
+            reply(ready)
+        elif "render" in msg:
+            index = msg["render"].get("index")
+            try:
+                if ctx is None:
+                    raise RuntimeError("render before setup")
+                t0 = time.perf_counter()
+                out = render(ctx, layout, msg["render"])
+                _log(f"sample {index}: {time.perf_counter() - t0:.2f} s")
+                reply(out)
+            except Exception as exc:
+                _log(f"sample {index} failed:\n{traceback.format_exc()}")
+                reply({"error": index, "message": f"{type(exc).__name__}: {exc}", "traceback": traceback.format_exc()})
+        else:
+            reply({"error": None, "message": f"unknown request {sorted(msg)}"})
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

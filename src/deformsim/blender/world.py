@@ -1,0 +1,82 @@
+"""HDRI world lighting: Environment Texture -> Background, rotated about Z, plus a camera-only flat colour.
+
+The world shader mixes the HDRI with a flat colour through Light Path "Is Camera Ray": camera rays see
+the flat colour (black or green for rendered backgrounds) while the HDRI still lights and reflects.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from pathlib import Path
+
+import bpy
+
+from deformsim.worker_client import list_hdris, hdri_files
+
+MAX_CACHED = 4  # HDRI images kept loaded at once
+
+
+def hdri_paths(hdri_dir: Path | None) -> dict[str, Path]:
+    """HDRI name -> file: ``hdri_dir``'s .exr/.hdr files, or Blender's studio lights when None."""
+    if hdri_dir is None:
+        system = Path(bpy.utils.system_resource("DATAFILES", path="studiolights/world"))
+        return {p.stem: p for p in sorted(system.glob("*.exr"))}
+    files = hdri_files(Path(hdri_dir))
+    return {name: files[name] for name in list_hdris(hdri_dir)}
+
+
+class World:
+    """The scene's world node tree; :meth:`set` picks the HDRI, rotation, strength and camera colour."""
+
+    def __init__(self, scene, hdri_dir: Path | None):
+        self.paths = hdri_paths(hdri_dir)
+        self.images: OrderedDict[str, object] = OrderedDict()
+        world = bpy.data.worlds.new("HDRI")
+        scene.world = world
+        nt = world.node_tree
+        nt.nodes.clear()
+        n = nt.nodes
+        coord = n.new("ShaderNodeTexCoord")
+        self.mapping = n.new("ShaderNodeMapping")
+        self.env = n.new("ShaderNodeTexEnvironment")
+        self.hdri_bg = n.new("ShaderNodeBackground")
+        self.flat_bg = n.new("ShaderNodeBackground")
+        path = n.new("ShaderNodeLightPath")
+        mix = n.new("ShaderNodeMixShader")
+        out = n.new("ShaderNodeOutputWorld")
+        link = nt.links.new
+        link(coord.outputs["Generated"], self.mapping.inputs["Vector"])
+        link(self.mapping.outputs["Vector"], self.env.inputs["Vector"])
+        link(self.env.outputs["Color"], self.hdri_bg.inputs["Color"])
+        link(path.outputs["Is Camera Ray"], mix.inputs["Fac"])
+        link(self.hdri_bg.outputs["Background"], mix.inputs[1])
+        link(self.flat_bg.outputs["Background"], mix.inputs[2])
+        link(mix.outputs["Shader"], out.inputs["Surface"])
+        self.flat_bg.inputs["Strength"].default_value = 1.0
+        self.set_camera_color((0.0, 0.0, 0.0))
+
+    def set(self, hdri: str, rotation_deg: float, strength: float) -> None:
+        self.env.image = self._image(hdri)
+        self.mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(rotation_deg))
+        self.hdri_bg.inputs["Strength"].default_value = strength
+
+    def set_camera_color(self, rgb_linear: tuple[float, float, float]) -> None:
+        """The colour camera rays see where the film is not transparent (linear RGB)."""
+        self.flat_bg.inputs["Color"].default_value = (*rgb_linear, 1.0)
+
+    def _image(self, name: str):
+        if name not in self.paths:
+            raise ValueError(f"unknown HDRI '{name}' (have: {', '.join(self.paths)})")
+        if name in self.images:
+            self.images.move_to_end(name)
+            return self.images[name]
+        while len(self.images) >= MAX_CACHED:
+            _, old = self.images.popitem(last=False)
+            if self.env.image == old:
+                self.env.image = None
+            bpy.data.images.remove(old)
+        img = bpy.data.images.load(str(self.paths[name]), check_existing=False)
+        img.use_fake_user = True  # survives orphans_purge between samples
+        self.images[name] = img
+        return img

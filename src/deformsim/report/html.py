@@ -1,0 +1,234 @@
+"""Render ``metrics.json`` (from :func:`deformsim.evaluate.experiments.run_experiments`) as one HTML page.
+
+The page is self-contained: CSS inline, every image a base64 ``data:`` URI, no external resource. Plot files
+named in ``metrics["plots"]`` are read relative to the report folder.
+"""
+
+from __future__ import annotations
+
+from html import escape
+from pathlib import Path
+
+from deformsim.atomic import write_json, write_text
+from deformsim.report.figures import curves_png, data_uri, png_file_uri, thumbnail_uri
+
+KEYS = (("accuracy", "Acc"), ("f1", "F1"), ("precision", "Prec."), ("recall", "Recall"))
+PARTS = (("split", "Synthetic test (held out)"), ("real", "Real test (sim-to-real)"))
+MAX_THUMBS = 12
+
+CSS = """
+body{font:15px/1.45 system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;color:#1d2433;background:#f4f6f9;margin:0}
+main{max-width:1080px;margin:0 auto;padding:28px 28px 60px}
+h1{font-size:24px;margin:0 0 4px}h2{font-size:18px;margin:34px 0 10px;border-bottom:2px solid #dfe4ec;padding-bottom:4px}
+.sub{color:#5b6475;font-size:13px}.card{background:#fff;border-radius:10px;box-shadow:0 1px 3px #0002;padding:16px 20px}
+.hero{display:flex;gap:18px;flex-wrap:wrap;margin-top:18px}.hero .card{flex:1;min-width:220px}
+.big{font-size:56px;font-weight:700;line-height:1.05;color:#0b6e4f}.mid{font-size:30px;font-weight:600;color:#2c4a7a}
+table.t2{border-collapse:collapse;width:100%;background:#fff;font-variant-numeric:tabular-nums}
+.t2 th,.t2 td{padding:7px 10px;text-align:center;border-bottom:1px solid #e6e9ef}.t2 th{background:#eef1f6;font-weight:600}
+.t2 td:first-child,.t2 th:first-child{text-align:left}.t2 .grp{border-left:2px solid #c9d1de}.best{font-weight:700}
+.cms{display:flex;flex-wrap:wrap;gap:14px}.cm{background:#fff;border-radius:8px;padding:10px 12px;box-shadow:0 1px 2px #0002}
+.cm table{border-collapse:collapse;font-size:13px}.cm td{width:62px;height:40px;text-align:center;font-weight:600}
+.cm th{font-weight:500;font-size:11px;color:#5b6475;padding:2px 6px}.cm .title{font-size:13px;font-weight:600;margin-bottom:6px}
+.plots{display:flex;flex-wrap:wrap;gap:14px}.plots img{background:#fff;border-radius:8px;box-shadow:0 1px 2px #0002;max-width:100%}
+.grid{display:flex;flex-wrap:wrap;gap:10px}.thumb{background:#fff;border-radius:8px;padding:6px;width:124px;
+box-shadow:0 1px 2px #0002;font-size:12px;text-align:center;border-top:4px solid #ccc}
+.thumb img{width:120px;height:120px;object-fit:contain;background:#222;border-radius:4px;display:block}
+.thumb.ok{border-top-color:#2e9e5b}.thumb.bad{border-top-color:#d0342c}.missing{width:120px;height:120px;background:#ddd;
+display:flex;align-items:center;justify-content:center;color:#777;border-radius:4px}
+.kv{border-collapse:collapse;font-size:13px}.kv td{padding:3px 14px 3px 0;border-bottom:1px solid #e6e9ef;vertical-align:top}
+.kv td:first-child{color:#5b6475}code{font-size:12px}.note{color:#5b6475;font-size:13px;margin:6px 0}
+"""
+
+
+def _pct(x: float | None) -> str:
+    return "—" if x is None else f"{100 * x:.1f}%"
+
+
+def _shade(x: float) -> str:
+    """Background for a score: pale red at 0.5 and below, pale green at 1."""
+    t = max(0.0, min(1.0, (x - 0.5) / 0.5))
+    return f"hsl({int(4 + 126 * t)},60%,{92 - 8 * t:.0f}%)"
+
+
+def _results(metrics: dict) -> list[tuple[str, str, dict]]:
+    """(variant, part, result) for every experiment that ran."""
+    return [
+        (v, part, e[part]) for v, e in metrics["variants"].items() for part, _ in PARTS if "metrics" in e.get(part, {})
+    ]
+
+
+def _headline(metrics: dict) -> tuple[str, str, dict] | None:
+    ran = _results(metrics)
+    for want in ("real", "split"):
+        cands = [r for r in ran if r[1] == want]
+        if cands:
+            return max(cands, key=lambda r: r[2]["metrics"]["accuracy"])
+    return None
+
+
+def _hero(metrics: dict) -> str:
+    head = _headline(metrics)
+    if head is None:
+        return '<div class="card">No experiment ran (see the notes in the table).</div>'
+    v, part, r = head
+    m = r["metrics"]
+    what = ("sim-to-real accuracy" if part == "real" else "accuracy on held-out synthetic images"
+            + " <em>(no real test set given)</em>")
+    cards = [
+        f'<div class="card"><div class="big">{_pct(m["accuracy"])}</div><div>{what}</div>'
+        f'<div class="sub">model trained on {r["train"]["n"]} synthetic <b>{escape(v)}</b> images, '
+        f'tested on {m["n"]} {"real photographs" if part == "real" else "held-out images"}</div></div>'
+    ]
+    cards.append(
+        f'<div class="card"><div class="mid">{_pct(m["f1"])}</div><div>F1 (deformed = positive)</div>'
+        f'<div class="sub">precision {_pct(m["precision"])} · recall {_pct(m["recall"])} · '
+        f'threshold {m["threshold"]:g}</div></div>'
+    )
+    return f'<div class="hero">{"".join(cards)}</div>'
+
+
+def _table2(metrics: dict) -> str:
+    best = {}
+    for _, part, r in _results(metrics):
+        for k, _ in KEYS:
+            best[(part, k)] = max(best.get((part, k), 0.0), r["metrics"][k])
+    head = "".join(f'<th colspan="4" class="grp">{title}</th>' for _, title in PARTS)
+    sub = "".join(
+        f'<th{" class=grp" if i == 0 else ""}>{label}</th>' for _ in PARTS for i, (_, label) in enumerate(KEYS)
+    )
+    rows = []
+    for v, e in metrics["variants"].items():
+        cells = []
+        for part, _ in PARTS:
+            r = e.get(part)
+            if not r or "metrics" not in r:
+                why = r.get("skipped", "") if r else "no real folder given"
+                cells.append(f'<td colspan="4" class="grp sub" title="{escape(why)}">— {escape(why)}</td>')
+                continue
+            for i, (k, _) in enumerate(KEYS):
+                x = r["metrics"][k]
+                cls = " ".join(c for c in ("grp" if i == 0 else "", "best" if x == best[(part, k)] else "") if c)
+                cells.append(f'<td class="{cls}" style="background:{_shade(x)}">{_pct(x)}</td>')
+        rows.append(f"<tr><td><b>{escape(v)}</b><div class=sub>{e['n_images']} images</div></td>{''.join(cells)}</tr>")
+    return (f'<table class="t2"><tr><th rowspan="2">Training variant</th>{head}</tr><tr>{sub}</tr>'
+            f'{"".join(rows)}</table>')
+
+
+def _confusion(title: str, cm: list[list[int]]) -> str:
+    names = ("intact", "deformed")
+    body = []
+    for i, row in enumerate(cm):
+        total = sum(row) or 1
+        tds = []
+        for j, n in enumerate(row):
+            frac = n / total
+            hue = 145 if i == j else 4
+            tds.append(f'<td style="background:hsl({hue},55%,{96 - 40 * frac:.0f}%)" '
+                       f'title="{n} of {sum(row)} true {names[i]}">{n}</td>')
+        body.append(f"<tr><th>true {names[i]}</th>{''.join(tds)}</tr>")
+    return (f'<div class="cm"><div class="title">{escape(title)}</div><table>'
+            f"<tr><th></th><th>pred. intact</th><th>pred. deformed</th></tr>{''.join(body)}</table></div>")
+
+
+def _thumb(path: str, caption: str, cls: str = "") -> str:
+    uri = thumbnail_uri(path)
+    img = f'<img src="{uri}" alt="">' if uri else '<div class="missing">missing</div>'
+    return f'<div class="thumb {cls}" title="{escape(path)}">{img}{caption}</div>'
+
+
+def _predictions(metrics: dict) -> str:
+    head = _headline(metrics)
+    if head is None:
+        return ""
+    v, part, r = head
+    preds = r["predictions"]
+    thr = r["metrics"]["threshold"]
+    wrong = [p for p in preds if (p["prob"] >= thr) != bool(p["y"])]
+    right = [p for p in preds if (p["prob"] >= thr) == bool(p["y"])]
+    wrong.sort(key=lambda p: -abs(p["prob"] - thr))  # most confident mistakes first
+    right.sort(key=lambda p: abs(p["prob"] - thr))  # least confident successes first
+    where = "real photographs" if part == "real" else "held-out synthetic images"
+
+    def grid(items, cls):
+        if not items:
+            return '<p class="note">none</p>'
+        cells = [_thumb(p["path"], f'{"deformed" if p["y"] else "intact"}<br>P(deformed) = {p["prob"]:.2f}', cls)
+                 for p in items[:MAX_THUMBS]]
+        more = f'<p class="note">… and {len(items) - MAX_THUMBS} more</p>' if len(items) > MAX_THUMBS else ""
+        return f'<div class="grid">{"".join(cells)}</div>{more}'
+
+    return (f"<h2>Predictions on {where}</h2><p class=note>Model trained on <b>{escape(v)}</b>; captions give "
+            f"the true label and the predicted probability of <i>deformed</i> (threshold {thr:g}).</p>"
+            f"<h3>Wrong ({len(wrong)})</h3>{grid(wrong, 'bad')}<h3>Right ({len(right)})</h3>{grid(right, 'ok')}")
+
+
+def _plots(metrics: dict, out_dir: Path) -> str:
+    plots = metrics.get("plots", {})
+    names = [plots.get("pca_pixels")] + list(plots.get("pca_features", {}).values())
+    imgs = [uri for uri in (png_file_uri(out_dir / n) for n in names if n) if uri]
+    if not imgs:
+        return ""
+    return ("<h2>Domain gap (PCA)</h2><p class=note>Each point is an image; colour = domain, marker = label. "
+            "Overlapping clouds mean the synthetic images resemble the real ones.</p>"
+            f'<div class="plots">{"".join(f"<img src={u!r} alt=PCA>" for u in imgs)}</div>')
+
+
+def _settings(metrics: dict) -> str:
+    rows = [("data", metrics.get("data_root")), ("real folder", metrics.get("real_dir") or "—"),
+            ("created", metrics.get("created")), ("total time", f"{metrics.get('seconds', 0):.1f} s")]
+    if metrics.get("missing_variants"):
+        rows.append(("variants not in the data", ", ".join(metrics["missing_variants"])))
+    for v, part, r in _results(metrics):
+        rows.append((f"model {v} / {part}", f"<code>{escape(r['model'])}</code> · weights <b>{escape(r['weights'])}"
+                     f"</b> · train {r['train_seconds']:.1f} s · predict {r['predict_seconds']:.1f} s"))
+    rows += [(f"train.{k}", escape(str(val))) for k, val in metrics["settings"].items()]
+    body = "".join(f"<tr><td>{escape(str(k))}</td><td>{val}</td></tr>" for k, val in rows)
+    return f'<h2>Settings</h2><table class="kv">{body}</table>'
+
+
+def render_html(metrics: dict, out_dir: Path) -> str:
+    """The report page as a string."""
+    cms = "".join(
+        _confusion(f"{v} · {'real' if part == 'real' else 'synthetic'} test", r["metrics"]["confusion"]["matrix"])
+        for v, part, r in _results(metrics)
+    )
+    curves = curves_png({f"{v} ({'all' if part == 'real' else 'split'})": r["history"]
+                         for v, part, r in _results(metrics)})
+    samples = "".join(
+        f"<h3>{escape(v)}</h3><div class=grid>"
+        + "".join(_thumb(x["path"], "deformed" if x["y"] else "intact") for x in e.get("examples", []))
+        + "</div>"
+        for v, e in metrics["variants"].items()
+    )
+    parts = [
+        "<!DOCTYPE html><html lang=en><head><meta charset=utf-8>",
+        "<meta name=viewport content='width=device-width,initial-scale=1'>",
+        f"<title>deformsim report</title><style>{CSS}</style></head><body><main>",
+        "<h1>Deformation classifier report</h1>",
+        f"<div class=sub>{escape(str(metrics.get('data_root', '')))} · {escape(str(metrics.get('created', '')))}</div>",
+        _hero(metrics),
+        "<h2>Results by training variant (paper, Table II)</h2>",
+        "<p class=note>Deformed is the positive class. Synthetic test: a held-out part of the variant, split by "
+        "scene so that no view of a test scene is seen in training. Real test: model trained on all images of "
+        "the variant.</p>",
+        _table2(metrics),
+        f"<h2>Confusion matrices</h2><div class=cms>{cms}</div>" if cms else "",
+        _plots(metrics, out_dir),
+        f"<h2>Training curves</h2><div class=plots><img src='{data_uri(curves, 'image/png')}' alt=curves></div>"
+        if curves else "",
+        _predictions(metrics),
+        f"<h2>Synthetic samples</h2>{samples}",
+        _settings(metrics),
+        "</main></body></html>",
+    ]
+    return "\n".join(parts)
+
+
+def write_report(metrics: dict, out_dir: str | Path) -> Path:
+    """Write ``out_dir/report.html`` and ``out_dir/metrics.json``; return the HTML path."""
+    out_dir = Path(out_dir)
+    html = render_html(metrics, out_dir)
+    write_json(out_dir / "metrics.json", metrics)
+    path = out_dir / "report.html"
+    write_text(path, html)
+    return path
