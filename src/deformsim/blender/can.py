@@ -181,11 +181,9 @@ def build_can() -> bpy.types.Object:
     bm.verts.ensure_lookup_table()
     uv = bm.loops.layers.uv.new("UVMap")
     wall_lo, wall_h = WALL[0], WALL[1] - WALL[0]
-    sharp = {"score", "tab"}
     for idx, part in m.faces:
         f = bm.faces.new([verts[i] for i in idx])
         f.smooth = True
-        f.material_index = 0 if part == "wall" else 1
         us = [(math.atan2(l.vert.co.y, l.vert.co.x) / (2 * math.pi)) % 1 for l in f.loops]
         for loop, u in zip(f.loops, us):
             if part == "wall":
@@ -194,32 +192,33 @@ def build_can() -> bpy.types.Object:
                 loop[uv].uv = (u, (loop.vert.co.z - wall_lo) / wall_h)
             else:  # planar top view: fine for lid, tab and bottom, unused by the aluminium
                 loop[uv].uv = (0.5 + loop.vert.co.x / HEIGHT, 0.5 + loop.vert.co.y / HEIGHT)
-        if part in sharp:
-            for e in f.edges:
-                e.smooth = False
     mesh = bpy.data.meshes.new("Can")
     bm.to_mesh(mesh)
     bm.free()
     mesh.set_sharp_from_angle(angle=math.radians(40))
-    for e in mesh.edges:  # the score line creases once the panel is pushed in
-        if set(e.vertices) <= set(groups["score"]) | set(groups["panel"]):
-            e.use_edge_sharp = e.use_edge_sharp or _on_loop(e.vertices, groups)
-
+    _crease_score(mesh, groups)
     obj = bpy.data.objects.new("Can", mesh)
     bpy.context.scene.collection.objects.link(obj)
     obj.vertex_groups.new(name="side_wall").add(groups["wall"].tolist(), 1.0, "REPLACE")
     obj.shape_key_add(name="Basis", from_mix=False)
     _key(obj, "Seal", co, groups["panel"], _seal(co[groups["panel"]]))
     _key(obj, "Tab", co, tab, _tab_open(co[tab]))
-    can_materials(obj)
+    can_materials(obj)  # slot 0 "Label" on the side wall, slot 1 "Aluminium" elsewhere
+    slots = np.array([0 if part == "wall" else 1 for _, part in m.faces], np.int32)
+    mesh.polygons.foreach_set("material_index", slots)
     return obj
 
 
-def _on_loop(edge_verts, groups) -> bool:
-    """True for edges running along the score loop or along the panel's first loop."""
-    score = set(groups["score"].tolist())
-    first = set(groups["panel"][:SEGMENTS].tolist())
-    return set(edge_verts) <= score or set(edge_verts) <= first
+def _crease_score(mesh: bpy.types.Mesh, groups: dict[str, np.ndarray]) -> None:
+    """Mark the score line and the panel edge sharp: they crease once the panel is pushed in."""
+    ev = np.empty(len(mesh.edges) * 2, np.int32)
+    mesh.edges.foreach_get("vertices", ev)
+    ev = ev.reshape(-1, 2)
+    loops = (groups["score"], groups["panel"][:SEGMENTS])
+    mask = np.any([np.isin(ev, loop).all(axis=1) for loop in loops], axis=0)
+    sharp = np.empty(len(mesh.edges), bool)
+    mesh.edges.foreach_get("use_edge_sharp", sharp)
+    mesh.edges.foreach_set("use_edge_sharp", sharp | mask)
 
 
 def _seal(pts: np.ndarray) -> np.ndarray:

@@ -59,6 +59,9 @@ class Rig:
 def build_rig(obj, spec: Spec) -> Rig:
     """Bake crinkle keys, then add the lattice (with its keys) and the LATTICE modifier to ``obj``."""
     _check_openings(obj, spec)
+    if obj.data.shape_keys:  # new keys start at 1.0: bake crinkle on the undeformed mesh
+        for block in obj.data.shape_keys.key_blocks[1:]:
+            block.value = 0.0
     if spec.displacement and spec.displacement.textures:
         _crinkle_group(obj, spec)
         for tex in spec.displacement.textures:
@@ -95,6 +98,7 @@ def _lattice(obj, spec: Spec):
         for key in fam.keys:
             block = lat.shape_key_add(name=key.name, from_mix=False)
             block.slider_max = SLIDER_MAX
+            block.value = 0.0
             pts = key_points(rest, [(op.op, op.params) for op in key.ops])
             block.data.foreach_set("co", pts.astype(np.float32).ravel())
     lat.hide_render = True

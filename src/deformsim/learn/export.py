@@ -1,0 +1,50 @@
+"""ONNX export of a trained model.
+
+The graph takes ``image``: float32 (N, 3, S, S) RGB in 0-1 (resized to the training size S, no
+normalisation: it is inside the graph) and outputs ``p_deformed``: (N,) probabilities. The training
+threshold, classes, image size and weights source are stored as ONNX metadata.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import torch
+from torch import nn
+
+from deformsim.atomic import atomic_path
+from deformsim.learn.models import DeformNet
+from deformsim.learn.predict import read_checkpoint, restore
+
+
+class _Probabilities(nn.Module):
+    def __init__(self, model: DeformNet):
+        super().__init__()
+        self.model = model
+
+    def forward(self, image: torch.Tensor) -> torch.Tensor:
+        return self.model.proba(image)
+
+
+def to_onnx(model_path: str | Path, onnx_path: str | Path) -> Path:
+    """Write the model at ``model_path`` (model.pt or its folder) to ``onnx_path``; returns the path."""
+    import onnx
+
+    ckpt, _ = read_checkpoint(model_path)
+    model, cfg = restore(ckpt)
+    onnx_path = Path(onnx_path)
+    example = torch.zeros(1, 3, cfg.image_size, cfg.image_size)
+    with atomic_path(onnx_path) as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice
+        torch.onnx.export(_Probabilities(model), (example,), str(tmp), dynamo=False, opset_version=17,
+                          input_names=["image"], output_names=["p_deformed"],
+                          dynamic_axes={"image": {0: "batch"}, "p_deformed": {0: "batch"}})
+        proto = onnx.load(str(tmp))
+        meta = {"classes": ",".join(ckpt.get("classes", [])), "threshold": str(cfg.threshold),
+                "image_size": str(cfg.image_size), "backbone": cfg.backbone, "weights": ckpt.get("weights", ""),
+                "input": "RGB float32 in [0, 1], NCHW, resized to image_size x image_size"}
+        for k, v in meta.items():
+            proto.metadata_props.add(key=k, value=v)
+        onnx.save(proto, str(tmp))
+    return onnx_path

@@ -1,0 +1,113 @@
+"""Training: Adam on the trainable tail and head, BCE-with-logits, an 80/20 split grouped by rendered object.
+
+With ``cache_features`` (and no augmentation) the frozen stem runs once over all images and every epoch
+trains on its cached activations; otherwise each batch goes through the whole network.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+import torch
+from torch import nn
+from tqdm import tqdm
+
+from deformsim.atomic import atomic_path, write_json
+from deformsim.config import TrainConfig
+from deformsim.learn.data import CLASSES, ImageSet, augmenter, check_table, split
+from deformsim.learn.features import cached_stem
+from deformsim.learn.models import DeformNet, build
+
+MODEL_FILE = "model.pt"
+
+
+@dataclass
+class TrainResult:
+    model_path: Path
+    history: list[dict]  # per epoch: epoch, loss, acc (train), val_loss, val_acc (None without a val split), seconds
+    weights: str
+    seconds: float
+
+
+def set_threads() -> None:
+    torch.set_num_threads(max(1, len(os.sched_getaffinity(0))))
+
+
+class _Inputs:
+    """Stem activations for rows of the table: from the cache, or images through the frozen stem."""
+
+    def __init__(self, model: DeformNet, paths: list[str], cfg: TrainConfig, progress: bool):
+        self.model = model
+        self.feats = None
+        self.plain = ImageSet(paths, cfg.image_size)
+        self.augmented = ImageSet(paths, cfg.image_size, augmenter(cfg.image_size)) if cfg.augment else self.plain
+        if cfg.cache_features and not cfg.augment:
+            self.feats, _ = cached_stem(model, paths, cfg.image_size, cfg.batch_size, progress)
+
+    def __call__(self, rows: torch.Tensor, train: bool) -> torch.Tensor:
+        if self.feats is not None:
+            return self.feats[rows].float()
+        images = self.augmented if train else self.plain
+        with torch.no_grad():
+            return self.model.stem(torch.stack([images[int(i)] for i in rows]))
+
+
+def _evaluate(model: DeformNet, inputs: _Inputs, rows: torch.Tensor, y: torch.Tensor, cfg: TrainConfig) -> tuple[float | None, float | None]:
+    if len(rows) == 0:
+        return None, None
+    model.eval()
+    with torch.no_grad():
+        logits = torch.cat([model.tail(inputs(b, train=False)) for b in rows.split(cfg.batch_size)])
+    loss = nn.functional.binary_cross_entropy_with_logits(logits, y[rows]).item()
+    acc = ((torch.sigmoid(logits) >= cfg.threshold).float() == y[rows]).float().mean().item()
+    return loss, acc
+
+
+def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = True) -> TrainResult:
+    """Train on ``table`` (columns id, path, y), validate on its held-out split, save ``out_dir/model.pt``."""
+    check_table(table)
+    start = time.perf_counter()
+    set_threads()
+    table = table.reset_index(drop=True)
+    model, weights = build(cfg)
+    train_rows, val_rows = (torch.as_tensor(r, dtype=torch.long) for r in split(table, cfg.split, cfg.seed))
+    y = torch.as_tensor(table["y"].to_numpy(), dtype=torch.float32)
+    inputs = _Inputs(model, list(table["path"]), cfg, progress)
+    params = [p for p in model.parameters() if p.requires_grad]
+    opt = torch.optim.Adam(params, lr=cfg.lr)
+    loss_fn = nn.BCEWithLogitsLoss()
+    order = torch.Generator().manual_seed(cfg.seed)
+    history = []
+    bar = tqdm(range(1, cfg.epochs + 1), desc="epochs", unit="epoch", disable=not progress)
+    for epoch in bar:
+        t0 = time.perf_counter()
+        model.train()
+        total, correct = 0.0, 0
+        for batch in train_rows[torch.randperm(len(train_rows), generator=order)].split(cfg.batch_size):
+            logits = model.tail(inputs(batch, train=True))
+            loss = loss_fn(logits, y[batch])
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            total += loss.item() * len(batch)
+            correct += int(((torch.sigmoid(logits) >= cfg.threshold).float() == y[batch]).sum())
+        val_loss, val_acc = _evaluate(model, inputs, val_rows, y, cfg)
+        row = {"epoch": epoch, "loss": total / len(train_rows), "acc": correct / len(train_rows),
+               "val_loss": val_loss, "val_acc": val_acc, "seconds": time.perf_counter() - t0}
+        history.append(row)
+        bar.set_postfix(loss=f"{row['loss']:.3f}", acc=f"{row['acc']:.2f}", val_acc="-" if val_acc is None else f"{val_acc:.2f}")
+    out_dir = Path(out_dir)
+    model_path = out_dir / MODEL_FILE
+    seconds = time.perf_counter() - start
+    split_ids = {"train": table["id"].iloc[train_rows.numpy()].tolist(), "val": table["id"].iloc[val_rows.numpy()].tolist()}
+    with atomic_path(model_path) as tmp:
+        torch.save({"state_dict": model.state_dict(), "config": cfg.model_dump(mode="json"), "weights": weights,
+                    "classes": list(CLASSES), "history": history, "split": split_ids}, tmp)
+    write_json(out_dir / "train.json", {"weights": weights, "seconds": seconds, "history": history,
+                                        "n_train": len(train_rows), "n_val": len(val_rows),
+                                        "config": cfg.model_dump(mode="json")})
+    return TrainResult(model_path, history, weights, seconds)

@@ -1,0 +1,42 @@
+"""Blender test helpers: snippets run in a fresh worker-like subprocess; the test process never imports bpy."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+PYTHON = ROOT / ".venv" / "bin" / "python"
+
+TINY_RENDER = {"render.resolution": 64, "render.samples": 4, "render.threads": 2}
+
+
+def run_blender(code: str, timeout: float = 300) -> dict:
+    """Run ``code`` in a fresh Python with bpy (PYTHONPATH=src); return the JSON printed on its last line."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    python = str(PYTHON if PYTHON.exists() else sys.executable)
+    proc = subprocess.run(
+        [python, "-c", textwrap.dedent(code)], capture_output=True, text=True, env=env, timeout=timeout
+    )
+    lines = proc.stdout.strip().splitlines()
+    if proc.returncode != 0 or not lines:
+        raise AssertionError(f"blender snippet failed ({proc.returncode}):\n{proc.stderr[-3000:]}")
+    return json.loads(lines[-1])
+
+
+@pytest.fixture(scope="session")
+def tiny_config():
+    from deformsim.config import load_config
+
+    return load_config("quick", TINY_RENDER)
+
+
+@pytest.fixture(scope="session")
+def python_exe() -> str:
+    return str(PYTHON if PYTHON.exists() else sys.executable)

@@ -1,0 +1,131 @@
+"""End to end on a tiny rendered dataset: Table II experiments, the report, and the CLI (1 epoch, 64 px)."""
+
+import json
+import re
+import shutil
+
+import pandas as pd
+import pytest
+from PIL import Image, ImageOps
+from typer.testing import CliRunner
+
+from deformsim.config import TrainConfig
+from deformsim.layout import RENDER_KINDS, Layout, image_id
+
+pytestmark = [pytest.mark.torch, pytest.mark.blender]
+
+CFG = dict(weights="none", epochs=1, image_size=64, batch_size=8, variants=["black", "backgrounds"], seed=0)
+
+
+@pytest.fixture(scope="module")
+def four_samples(tiny_dataset, tmp_path_factory):
+    """The tiny dataset (2 scene states) plus a mirrored copy of each: 2 intact + 2 deformed samples of 4 views,
+    enough for a stratified split by sample."""
+    src = Layout(tiny_dataset)
+    dst = Layout(tmp_path_factory.mktemp("four") / "data")
+    manifest = pd.read_parquet(src.manifest)
+    n = manifest["sample"].max() + 1
+    rows = []
+    for copy in (0, 1):
+        for _, r in manifest.iterrows():
+            r = r.copy()
+            r["sample"] += copy * n
+            r["id"] = image_id(r["sample"], r["camera"])
+            for kind in RENDER_KINDS:
+                out = dst.image(kind, r["id"])
+                out.parent.mkdir(parents=True, exist_ok=True)
+                with Image.open(src.root / r[kind]) as im:
+                    (ImageOps.mirror(im) if copy else im.copy()).save(out)
+                r[kind] = dst.rel(out)
+            rows.append(r)
+    pd.DataFrame(rows).to_parquet(dst.manifest, index=False)
+    return dst.root
+
+
+@pytest.fixture(scope="module")
+def real_dir(four_samples, tmp_path_factory):
+    """Stand-in 'real' photos: the green-background renders, sorted into intact/ and deformed/."""
+    real = tmp_path_factory.mktemp("real")
+    m = pd.read_parquet(Layout(four_samples).manifest)
+    for _, r in m[m["sample"] < 2].iterrows():
+        (real / r["label"]).mkdir(exist_ok=True)
+        shutil.copy(four_samples / r["green"], real / r["label"] / f"{r['id']}.png")
+    return real
+
+
+@pytest.fixture(scope="module")
+def experiments(four_samples, real_dir, tmp_path_factory):
+    from deformsim.evaluate.experiments import run_experiments
+
+    out = tmp_path_factory.mktemp("exp")
+    return run_experiments(four_samples, TrainConfig(**CFG), out, real_dir=real_dir, progress=False), out
+
+
+def test_table2_experiments(experiments, four_samples):
+    metrics, out = experiments
+    assert json.loads((out / "metrics.json").read_text()) == json.loads(json.dumps(metrics))
+    assert metrics["missing_variants"] == ["backgrounds"]
+    black = metrics["variants"]["black"]
+    split, real = black["split"], black["real"]
+    # split: one whole intact and one whole deformed scene held out, all 4 views each
+    assert split["test"] == {"n": 8, "n_deformed": 4, "n_samples": 2}
+    assert split["train"] == {"n": 8, "n_deformed": 4, "n_samples": 2}
+    saved = json.loads((out / "models" / "black_split" / "split.json").read_text())
+    sample = lambda ids: {i.split("_")[0] for i in ids}  # noqa: E731
+    assert sample(saved["train"]).isdisjoint(sample(saved["test"]))
+    # sim-to-real: trained on all 16 synthetic images, tested on the 8 'real' ones
+    assert real["train"]["n"] == 16 and real["test"]["n"] == 8
+    assert (out / real["model"]).exists() and (out / split["model"]).exists()
+    for part in (split, real):
+        m = part["metrics"]
+        assert sum(map(sum, m["confusion"]["matrix"])) == m["n"] == len(part["predictions"])
+        assert all(0 <= p["prob"] <= 1 for p in part["predictions"])
+        right = sum((p["prob"] >= 0.5) == bool(p["y"]) for p in part["predictions"])
+        assert m["accuracy"] == pytest.approx(right / m["n"])
+        assert [h["epoch"] for h in part["history"]] == [1] and part["weights"] == "none"
+    assert black["summary"]["real"]["accuracy"] == real["metrics"]["accuracy"]
+    for name in [metrics["plots"]["pca_pixels"], *metrics["plots"]["pca_features"].values()]:
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert list(metrics["plots"]["pca_features"]) == ["black"]
+
+
+def test_report_from_experiments(experiments):
+    from deformsim.report.html import write_report
+
+    metrics, out = experiments
+    html = write_report(metrics, out).read_text()
+    acc = metrics["variants"]["black"]["real"]["metrics"]["accuracy"]
+    assert f"{100 * acc:.1f}%" in html
+    assert html.count("data:image/png;base64,") >= 3  # pixel PCA, feature PCA, training curves
+    refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)""", html)
+    assert refs and all(r.startswith("data:") for r in refs)
+
+
+def test_cli_evaluate_and_report(experiments, four_samples, real_dir, tmp_path):
+    from deformsim.cli import app
+
+    metrics, out = experiments
+    runner = CliRunner()
+    res = runner.invoke(app, ["evaluate", str(out / "models" / "black_split"), "--data", str(four_samples),
+                              "--variant", "black", "--out", str(tmp_path / "m.json")])
+    assert res.exit_code == 0, res.output
+    saved = json.loads((tmp_path / "m.json").read_text())
+    assert saved["held_out"] and saved["n_images"] == 8
+    assert saved["metrics"] == metrics["variants"]["black"]["split"]["metrics"]
+    res = runner.invoke(app, ["evaluate", str(out / "models" / "black_full"), "--real", str(real_dir)])
+    assert res.exit_code == 0 and f"{100 * metrics['variants']['black']['real']['metrics']['accuracy']:.1f}%" in res.output
+
+    res = runner.invoke(app, ["evaluate", str(out / "models" / "black_full"), "--data", str(four_samples)])
+    assert res.exit_code == 2 and "which variant" in res.output
+    res = runner.invoke(app, ["report", str(four_samples), "--real", str(tmp_path / "nope")])
+    assert res.exit_code == 2 and "nope" in res.output
+
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text("train: {image_size: 64, batch_size: 8}\n")
+    res = runner.invoke(app, ["report", str(four_samples), "--out", str(tmp_path / "rep"), "--config", str(cfg),
+                              "--variants", "black", "--epochs", "1", "--weights", "none", "--no-progress"])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "rep" / "report.html").is_file() and "report.html" in res.output
+    rep = json.loads((tmp_path / "rep" / "metrics.json").read_text())
+    assert list(rep["variants"]) == ["black"] and "real" not in rep["variants"]["black"]
+    assert rep["settings"]["epochs"] == 1
