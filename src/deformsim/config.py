@@ -136,7 +136,9 @@ class GenerateConfig(_Model):
 class CompositeConfig(_Model):
     """Chroma-key matting and compositing onto backgrounds."""
 
-    matte: Literal["alpha", "chroma"] = "chroma"
+    matte: Literal["alpha", "chroma", "inrange"] = Field(
+        "chroma", description="alpha: exact render alpha; chroma: soft green key; inrange: the paper's hard key"
+    )
     key_color: tuple[int, int, int] = (0, 255, 0)
     tolerance: int = Field(60, ge=0, le=255)
     close_kernel: int = Field(5, ge=0)

@@ -11,7 +11,7 @@ pytestmark = pytest.mark.blender
 BUILD = """
 import json, numpy as np, bpy
 from deformsim.blender import scene
-from deformsim.blender._devcan import build_can
+from deformsim.blender.can import build_can
 from deformsim.blender.rig import build_rig
 from deformsim.spec import load_spec
 from deformsim.rig_ops import rest_lattice
@@ -96,7 +96,7 @@ def test_missing_vertex_group_is_a_user_error(tmp_path):
         f"""
 import json
 from deformsim.blender import scene
-from deformsim.blender._devcan import build_can
+from deformsim.blender.can import build_can
 from deformsim.blender.rig import build_rig
 from deformsim.errors import UserError
 from deformsim.spec import load_spec

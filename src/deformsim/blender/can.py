@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import math
 
-import bmesh
 import bpy
+import bmesh  # noqa: I001 (bmesh is importable only once bpy is)
 import numpy as np
 
 SEGMENTS = 64
@@ -19,8 +19,9 @@ RADIUS, HEIGHT = 0.033, 0.122
 WALL = (0.010, 0.108)  # side-wall (label) z range
 WALL_RINGS = 41
 LID_Z, LID_R = 0.1172, 0.0245
-PANEL_C = np.array([0.0, 0.0125])  # score panel centre: off the rivet (origin) towards +y
+PANEL_C = np.array([0.0, 0.0115])  # score panel centre: off the rivet (origin) towards +y
 SCORE_GAP = 0.0006  # width of the score strip that becomes the panel's wall when pushed in
+SCORE_DEPTH = 0.00012  # the score line is a shallow groove at rest
 SEAL_DROP = 0.0035  # far end of the panel goes down this much at Seal = 1
 TAB_LIFT, NOSE_DIP = math.radians(75), math.radians(10)
 TAB_HINGE_Y = -0.0018  # tab bends just behind the rivet
@@ -93,16 +94,18 @@ def _body(m: _Mesh) -> dict[str, np.ndarray]:
     edge = rings[-1][0]
     lid_pts = _ring(LID_R, LID_Z, theta)
     score = np.column_stack([PANEL_C + rho[:, None] * np.column_stack([np.cos(theta), np.sin(theta)]),
-                             np.full(SEGMENTS, LID_Z)])
+                             np.full(SEGMENTS, LID_Z - SCORE_DEPTH)])
     prev = edge
     for t in np.linspace(0, 1, 12)[1:]:
         cur = m.add(lid_pts * (1 - t) + score * t)
+        m.verts[-1][:, 2] = LID_Z if t < 1 else LID_Z - SCORE_DEPTH
         m.bridge(prev, cur, "lid")
         prev = cur
     score_idx = prev
     panel = []
     for s in (1 - SCORE_GAP / rho.min(), 0.7, 0.4):
         pts = score.copy()
+        pts[:, 2] = LID_Z
         pts[:, :2] = PANEL_C + (score[:, :2] - PANEL_C) * s
         cur = m.add(pts)
         m.bridge(prev, cur, "score" if prev is score_idx else "lid")
@@ -117,8 +120,12 @@ def _body(m: _Mesh) -> dict[str, np.ndarray]:
 def _tab_outline(phi: np.ndarray, hole: np.ndarray) -> np.ndarray:
     """Radius from the finger-hole centre to the tab outline (hull of two circles) at angles ``phi``."""
     circles = [((0.0, -0.0093), 0.0062), ((0.0, 0.0030), 0.0045)]
-    t = np.linspace(0, 2 * np.pi, 720, endpoint=False)
-    pts = np.concatenate([np.column_stack([cx + r * np.cos(t), cy + r * np.sin(t)]) for (cx, cy), r in circles])
+    t = np.linspace(0, 2 * np.pi, 720, endpoint=False)[:, None]
+    (c1, r1), (c2, r2) = circles
+    s = np.linspace(0, 1, 40)[None, :]  # points with equal outward normals span the hull
+    x = (c1[0] + r1 * np.cos(t)) * (1 - s) + (c2[0] + r2 * np.cos(t)) * s
+    y = (c1[1] + r1 * np.sin(t)) * (1 - s) + (c2[1] + r2 * np.sin(t)) * s
+    pts = np.column_stack([x.ravel(), y.ravel()])
     d = pts - hole
     ang, rad = np.arctan2(d[:, 1], d[:, 0]), np.hypot(d[:, 0], d[:, 1])
     bins = np.linspace(-np.pi, np.pi, 361)
@@ -138,9 +145,9 @@ def _tab(m: _Mesh) -> np.ndarray:
     inner = hole + d * np.array([0.0042, 0.0034])
     start = m.n
     top, bot = [], []
-    for t in np.linspace(0, 1, 4):
+    for t, bead in zip(np.linspace(0, 1, 4), (-0.0002, 0.0003, 0.0003, -0.0001)):  # curled edges
         xy = outer * (1 - t) + inner * t
-        top.append(m.add(np.column_stack([xy, np.full(n, TAB_Z[1])])))
+        top.append(m.add(np.column_stack([xy, np.full(n, TAB_Z[1] + bead)])))
         bot.append(m.add(np.column_stack([xy, np.full(n, TAB_Z[0])])))
     for k in range(3):
         m.bridge(top[k], top[k + 1], "tab")
@@ -149,11 +156,11 @@ def _tab(m: _Mesh) -> np.ndarray:
     m.bridge(top[-1], bot[-1], "tab")
     # Rivet head: a small closed dome sitting on the tab.
     ang = 2 * np.pi * np.arange(16) / 16
-    base = m.add(_ring(0.0017, TAB_Z[1] + 0.00002, ang))
-    mid = m.add(_ring(0.0012, TAB_Z[1] + 0.0005, ang))
+    base = m.add(_ring(0.0017, TAB_Z[1] + 0.0002, ang))
+    mid = m.add(_ring(0.0012, TAB_Z[1] + 0.0007, ang))
     m.bridge(base, mid, "tab")
-    m.fan(mid, m.add(np.array([0, 0, TAB_Z[1] + 0.0007]))[0], "tab")
-    m.fan(base[::-1], m.add(np.array([0, 0, TAB_Z[1] + 0.00002]))[0], "tab")
+    m.fan(mid, m.add(np.array([0, 0, TAB_Z[1] + 0.0009]))[0], "tab")
+    m.fan(base[::-1], m.add(np.array([0, 0, TAB_Z[1] + 0.0002]))[0], "tab")
     return np.arange(start, m.n)
 
 

@@ -96,6 +96,10 @@ def set_label(obj: bpy.types.Object, design: LabelParams, width: int = 512, heig
     pixels = np.ascontiguousarray(make_label(design, width, height)[::-1])  # Blender rows go bottom-up
     img.pixels.foreach_set(pixels.ravel())
     img.update()
+    img.update_tag()
+    # Cycles with persistent data keeps an image it has loaded until the image's parameters change; the
+    # label is opaque, so flipping the (unused) alpha mode makes it reload the new pixels at no cost.
+    img.alpha_mode = "NONE" if img.alpha_mode == "STRAIGHT" else "STRAIGHT"
 
 
 def apply_material(obj: bpy.types.Object, spec_material: Material, params: MaterialParams | None) -> None:

@@ -2,7 +2,7 @@
 
 ``rgba`` is Cycles' exact-alpha render (transparent film). ``black`` and ``green`` are composited over it
 in 8-bit straight alpha (rgb*a + C*(1-a)), or, with ``render.render_backgrounds``, rendered by Cycles with
-the world showing that colour to camera rays only.
+the world showing that colour to camera rays only (pixels the object does not cover are set exactly).
 """
 
 from __future__ import annotations
@@ -80,9 +80,26 @@ def apply_state(ctx: RenderContext, p: SampleParams) -> None:
     ctx.rig.set(p.keys, p.displacement, p.seal, p.tab)
     if p.design is not None and ctx.materials is not None:
         ctx.materials.set_label(ctx.obj, p.design)
+        _refresh_edited_images()
     if p.material is not None and ctx.materials is not None:
         ctx.materials.apply_material(ctx.obj, ctx.spec.material, p.material)
     ctx.world.set(p.hdri, p.hdri_rotation, p.hdri_strength)
+
+
+def _refresh_edited_images() -> None:
+    """Cycles' persistent data ignores in-place pixel edits: move each edited image to a new datablock."""
+    for img in list(bpy.data.images):
+        if not (img.is_dirty and img.users and img.source == "GENERATED"):
+            continue
+        pixels = np.empty(len(img.pixels), dtype=np.float32)
+        img.pixels.foreach_get(pixels)
+        fresh = bpy.data.images.new(img.name, *img.size, alpha=True, float_buffer=img.is_float)
+        fresh.colorspace_settings.name = img.colorspace_settings.name
+        fresh.pixels.foreach_set(pixels)
+        name = img.name
+        img.user_remap(fresh)
+        bpy.data.images.remove(img)
+        fresh.name = name
 
 
 def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> list[float]:
@@ -101,6 +118,7 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> list[f
         for kind, color in BACKGROUNDS.items():
             if ctx.cfg.render.render_backgrounds:
                 img, dt = _render_background(ctx, layout.image(kind, iid), color)
+                img[rgba[..., 3] == 0] = color  # the denoiser can tint flat corners; uncovered pixels are exact
                 t += dt
             else:
                 img = composite(rgba, color)

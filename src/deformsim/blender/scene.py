@@ -57,6 +57,7 @@ def configure_cycles(scene, render_cfg: RenderConfig, threads: int = 0) -> str:
     scene.render.resolution_x = scene.render.resolution_y = render_cfg.resolution
     scene.render.resolution_percentage = 100
     scene.render.film_transparent = True
+    scene.render.dither_intensity = 0.0  # exact flat colours in 8-bit output
     scene.render.use_persistent_data = True
     scene.render.threads_mode = "FIXED" if threads else "AUTO"
     if threads:

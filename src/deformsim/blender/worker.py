@@ -51,10 +51,7 @@ def setup(msg: dict):
     scene = bpy.context.scene
     materials = _materials_module()
     if cfg.object.mesh is None:
-        try:  # TEMP until can.py lands
-            from deformsim.blender import can
-        except ImportError:
-            from deformsim.blender import _devcan as can
+        from deformsim.blender import can
 
         obj = can.build_can()
         if materials is not None:

@@ -182,7 +182,6 @@ def run_experiments(
     return metrics
 
 
-
 def _log(progress: bool, message: str) -> None:
     if progress:
         log.info(message)

@@ -58,7 +58,7 @@ def domain_plot(coords: np.ndarray, domain: list[str], y: np.ndarray, ratio: np.
     import matplotlib.pyplot as plt
 
     domain, y = np.asarray(domain), np.asarray(y)
-    fig, ax = plt.subplots(figsize=(5.2, 4.2), dpi=110)
+    fig, ax = plt.subplots(figsize=(5.2, 4.0), dpi=110)
     palette = iter(COLORS)
     for name in dict.fromkeys(domain.tolist()):
         color = REAL_COLOR if name == "real" else next(palette, "#333333")
@@ -70,13 +70,13 @@ def domain_plot(coords: np.ndarray, domain: list[str], y: np.ndarray, ratio: np.
     ax.set_xlabel(f"PC1 ({ratio[0]:.0%} of variance)")
     ax.set_ylabel(f"PC2 ({ratio[1]:.0%} of variance)")
     ax.set_title(title, fontsize=11)
-    ax.legend(fontsize=7, frameon=False, loc="best")
+    ax.legend(fontsize=7, frameon=False, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
     ax.grid(alpha=0.25)
     for side in ("top", "right"):
         ax.spines[side].set_visible(False)
     fig.tight_layout()
     buf = io.BytesIO()
-    fig.savefig(buf, format="png")
+    fig.savefig(buf, format="png", bbox_inches="tight")
     plt.close(fig)
     return buf.getvalue()
 

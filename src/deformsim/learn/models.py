@@ -21,9 +21,17 @@ WIDTH = {"vgg16": 512, "mobilenet_v2": 1280}
 
 
 def backbone_features(name: str) -> nn.Sequential:
+    """torchvision's randomly initialised ``features`` (VGG-16 without building its 120M-parameter classifier)."""
     from torchvision import models
 
-    return getattr(models, name)(weights=None).features
+    if name == "mobilenet_v2":
+        return models.mobilenet_v2(weights=None).features
+    features = models.vgg.make_layers(models.vgg.cfgs["D"])
+    for m in features.modules():
+        if isinstance(m, nn.Conv2d):  # as torchvision's VGG initialises its convolutions
+            nn.init.kaiming_normal_(m.weight, mode="fan_out", nonlinearity="relu")
+            nn.init.zeros_(m.bias)
+    return features
 
 
 class DeformNet(nn.Module):

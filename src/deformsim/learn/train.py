@@ -81,6 +81,7 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     opt = torch.optim.Adam(params, lr=cfg.lr)
     loss_fn = nn.BCEWithLogitsLoss()
     order = torch.Generator().manual_seed(cfg.seed)
+    torch.manual_seed(cfg.seed)  # dropout and augmentation draw from here; a cache miss must not shift them
     history = []
     bar = tqdm(range(1, cfg.epochs + 1), desc="epochs", unit="epoch", disable=not progress)
     for epoch in bar:

@@ -178,7 +178,7 @@ def convert_oxford_onnx(path: Path) -> dict:
     """
     import onnx
     from onnx import helper, numpy_helper
-    from torchvision.models import vgg16
+    from deformsim.learn.models import backbone_features
 
     graph = onnx.load(str(path)).graph
     inits = {t.name: t for t in graph.initializer}
@@ -193,7 +193,7 @@ def convert_oxford_onnx(path: Path) -> dict:
     for n, a in attrs:
         if n.op_type == "MaxPool" and (a.get("kernel_shape") != [2, 2] or a.get("strides") != [2, 2] or any(a.get("pads", [0]))):
             raise UserError(f"{path}: pool {n.name} is not a 2x2/2 max pool ({a})")
-    conv_idx = [i for i, m in enumerate(vgg16().features) if isinstance(m, torch.nn.Conv2d)]
+    conv_idx = [i for i, m in enumerate(backbone_features("vgg16")) if isinstance(m, torch.nn.Conv2d)]
     if len(convs) != len(conv_idx):
         raise UserError(f"{path}: has {len(convs)} convolutions, VGG-16 has {len(conv_idx)}")
     state = {}

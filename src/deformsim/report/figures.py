@@ -32,7 +32,7 @@ def thumbnail_uri(path: str | Path, size: int = 120) -> str | None:
 
 
 def curves_png(histories: dict[str, list[dict]]) -> bytes | None:
-    """Training loss and accuracy per epoch, one line per model; None when there is no history."""
+    """Loss and accuracy per epoch, one colour per model (dashed: validation); None without history."""
     histories = {k: h for k, h in histories.items() if h}
     if not histories:
         return None
@@ -40,17 +40,25 @@ def curves_png(histories: dict[str, list[dict]]) -> bytes | None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.2), dpi=110)
     for name, hist in histories.items():
         epochs = [h["epoch"] for h in hist]
-        line = axes[0].plot(epochs, [h["loss"] for h in hist], marker="o", ms=3, label=name)[0]
-        axes[1].plot(epochs, [h["acc"] for h in hist], marker="o", ms=3, color=line.get_color(), label=name)
-    for ax, what in zip(axes, ("training loss", "training accuracy")):
+        color = None
+        for ax, key in zip(axes, ("loss", "acc")):
+            line = ax.plot(epochs, [h[key] for h in hist], marker="o", ms=3, color=color, label=f"{name} train")[0]
+            color = line.get_color()
+            val = [(e, h.get(f"val_{key}")) for e, h in zip(epochs, hist) if h.get(f"val_{key}") is not None]
+            if val:
+                ax.plot(*zip(*val), ls="--", marker="s", ms=3, color=color, label=f"{name} validation")
+    epochs = [h["epoch"] for hist in histories.values() for h in hist]
+    for ax, what in zip(axes, ("loss", "accuracy")):
+        ax.set_xlim(min(epochs) - 0.5, max(epochs) + 0.5)
         ax.set_title(what, fontsize=10)
         ax.set_xlabel("epoch")
         ax.grid(alpha=0.25)
-        ax.xaxis.get_major_locator().set_params(integer=True)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
         for side in ("top", "right"):
             ax.spines[side].set_visible(False)
     axes[1].set_ylim(0, 1.02)

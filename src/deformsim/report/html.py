@@ -19,24 +19,41 @@ MAX_THUMBS = 12
 CSS = """
 body{font:15px/1.45 system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;color:#1d2433;background:#f4f6f9;margin:0}
 main{max-width:1080px;margin:0 auto;padding:28px 28px 60px}
-h1{font-size:24px;margin:0 0 4px}h2{font-size:18px;margin:34px 0 10px;border-bottom:2px solid #dfe4ec;padding-bottom:4px}
-.sub{color:#5b6475;font-size:13px}.card{background:#fff;border-radius:10px;box-shadow:0 1px 3px #0002;padding:16px 20px}
-.hero{display:flex;gap:18px;flex-wrap:wrap;margin-top:18px}.hero .card{flex:1;min-width:220px}
-.big{font-size:56px;font-weight:700;line-height:1.05;color:#0b6e4f}.mid{font-size:30px;font-weight:600;color:#2c4a7a}
+h1{font-size:24px;margin:0 0 4px}
+h2{font-size:18px;margin:34px 0 10px;border-bottom:2px solid #dfe4ec;padding-bottom:4px}
+.sub{color:#5b6475;font-size:13px}
+.note{color:#5b6475;font-size:13px;margin:6px 0}
+.card{background:#fff;border-radius:10px;box-shadow:0 1px 3px #0002;padding:16px 20px}
+.hero{display:flex;gap:18px;flex-wrap:wrap;margin-top:18px}
+.hero .card{flex:1;min-width:220px}
+.big{font-size:56px;font-weight:700;line-height:1.05;color:#0b6e4f}
+.mid{font-size:30px;font-weight:600;color:#2c4a7a}
 table.t2{border-collapse:collapse;width:100%;background:#fff;font-variant-numeric:tabular-nums}
-.t2 th,.t2 td{padding:7px 10px;text-align:center;border-bottom:1px solid #e6e9ef}.t2 th{background:#eef1f6;font-weight:600}
-.t2 td:first-child,.t2 th:first-child{text-align:left}.t2 .grp{border-left:2px solid #c9d1de}.best{font-weight:700}
-.cms{display:flex;flex-wrap:wrap;gap:14px}.cm{background:#fff;border-radius:8px;padding:10px 12px;box-shadow:0 1px 2px #0002}
-.cm table{border-collapse:collapse;font-size:13px}.cm td{width:62px;height:40px;text-align:center;font-weight:600}
-.cm th{font-weight:500;font-size:11px;color:#5b6475;padding:2px 6px}.cm .title{font-size:13px;font-weight:600;margin-bottom:6px}
-.plots{display:flex;flex-wrap:wrap;gap:14px}.plots img{background:#fff;border-radius:8px;box-shadow:0 1px 2px #0002;max-width:100%}
-.grid{display:flex;flex-wrap:wrap;gap:10px}.thumb{background:#fff;border-radius:8px;padding:6px;width:124px;
-box-shadow:0 1px 2px #0002;font-size:12px;text-align:center;border-top:4px solid #ccc}
+.t2 th,.t2 td{padding:7px 10px;text-align:center;border-bottom:1px solid #e6e9ef}
+.t2 th{background:#eef1f6;font-weight:600}
+.t2 td:first-child,.t2 th:first-child{text-align:left}
+.t2 .grp{border-left:2px solid #c9d1de}
+.best{font-weight:700}
+.cms{display:flex;flex-wrap:wrap;gap:14px}
+.cm{background:#fff;border-radius:8px;padding:10px 12px;box-shadow:0 1px 2px #0002}
+.cm table{border-collapse:collapse;font-size:13px}
+.cm td{width:62px;height:40px;text-align:center;font-weight:600}
+.cm th{font-weight:500;font-size:11px;color:#5b6475;padding:2px 6px}
+.cm .title{font-size:13px;font-weight:600;margin-bottom:6px}
+.plots{display:flex;flex-wrap:wrap;gap:14px}
+.plots img{background:#fff;border-radius:8px;box-shadow:0 1px 2px #0002;max-width:100%}
+.plots.two img{width:calc(50% - 7px)}
+.grid{display:flex;flex-wrap:wrap;gap:10px}
+.thumb{background:#fff;border-radius:8px;padding:6px;width:124px;box-shadow:0 1px 2px #0002;font-size:12px;
+  text-align:center;border-top:4px solid #ccc}
 .thumb img{width:120px;height:120px;object-fit:contain;background:#222;border-radius:4px;display:block}
-.thumb.ok{border-top-color:#2e9e5b}.thumb.bad{border-top-color:#d0342c}.missing{width:120px;height:120px;background:#ddd;
-display:flex;align-items:center;justify-content:center;color:#777;border-radius:4px}
-.kv{border-collapse:collapse;font-size:13px}.kv td{padding:3px 14px 3px 0;border-bottom:1px solid #e6e9ef;vertical-align:top}
-.kv td:first-child{color:#5b6475}code{font-size:12px}.note{color:#5b6475;font-size:13px;margin:6px 0}
+.thumb.ok{border-top-color:#2e9e5b}
+.thumb.bad{border-top-color:#d0342c}
+.missing{width:120px;height:120px;background:#ddd;display:flex;align-items:center;justify-content:center;color:#777}
+.kv{border-collapse:collapse;font-size:13px}
+.kv td{padding:3px 14px 3px 0;border-bottom:1px solid #e6e9ef;vertical-align:top}
+.kv td:first-child{color:#5b6475}
+code{font-size:12px}
 """
 
 
@@ -83,6 +100,13 @@ def _hero(metrics: dict) -> str:
         f'<div class="card"><div class="mid">{_pct(m["f1"])}</div><div>F1 (deformed = positive)</div>'
         f'<div class="sub">precision {_pct(m["precision"])} · recall {_pct(m["recall"])} · '
         f'threshold {m["threshold"]:g}</div></div>'
+    )
+    baseline = max(m["n_deformed"], m["n"] - m["n_deformed"]) / m["n"]
+    synthetic = metrics["variants"][v].get("split", {}).get("metrics") if part == "real" else None
+    extra = f"<br>held-out synthetic accuracy {_pct(synthetic['accuracy'])}" if synthetic else ""
+    cards.append(
+        f'<div class="card"><div class="mid">{_pct(baseline)}</div><div>majority-class baseline</div>'
+        f'<div class="sub">accuracy of always answering the commoner label{extra}</div></div>'
     )
     return f'<div class="hero">{"".join(cards)}</div>'
 
@@ -170,7 +194,7 @@ def _plots(metrics: dict, out_dir: Path) -> str:
         return ""
     return ("<h2>Domain gap (PCA)</h2><p class=note>Each point is an image; colour = domain, marker = label. "
             "Overlapping clouds mean the synthetic images resemble the real ones.</p>"
-            f'<div class="plots">{"".join(f"<img src={u!r} alt=PCA>" for u in imgs)}</div>')
+            f'<div class="plots two">{"".join(f"<img src={u!r} alt=PCA>" for u in imgs)}</div>')
 
 
 def _settings(metrics: dict) -> str:
@@ -178,6 +202,7 @@ def _settings(metrics: dict) -> str:
             ("created", metrics.get("created")), ("total time", f"{metrics.get('seconds', 0):.1f} s")]
     if metrics.get("missing_variants"):
         rows.append(("variants not in the data", ", ".join(metrics["missing_variants"])))
+    rows = [(k, escape(str(val))) for k, val in rows]
     for v, part, r in _results(metrics):
         rows.append((f"model {v} / {part}", f"<code>{escape(r['model'])}</code> · weights <b>{escape(r['weights'])}"
                      f"</b> · train {r['train_seconds']:.1f} s · predict {r['predict_seconds']:.1f} s"))
@@ -205,7 +230,8 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         "<meta name=viewport content='width=device-width,initial-scale=1'>",
         f"<title>deformsim report</title><style>{CSS}</style></head><body><main>",
         "<h1>Deformation classifier report</h1>",
-        f"<div class=sub>{escape(str(metrics.get('data_root', '')))} · {escape(str(metrics.get('created', '')))}</div>",
+        f"<div class=sub>{escape(str(metrics.get('data_root', '')))} · "
+        f"{escape(str(metrics.get('created', '')))}</div>",
         _hero(metrics),
         "<h2>Results by training variant (paper, Table II)</h2>",
         "<p class=note>Deformed is the positive class. Synthetic test: a held-out part of the variant, split by "

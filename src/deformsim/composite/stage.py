@@ -1,0 +1,200 @@
+"""The composite stage: matte every rendered image, put it on a background, write a named variant.
+
+A variant is ``OUT/variants/NAME/`` with ``images/ID.png``, ``manifest.parquet`` (``id``, ``image`` and what
+went into each composite) and ``composite.json`` (the settings). Each image draws from its own generator
+``default_rng([seed, stable_int(id)])``, so the result does not depend on the number of workers. The
+variant is built in a staging folder and swapped in only when complete.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import re
+import shutil
+import tempfile
+import uuid
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+
+from deformsim.atomic import write_json
+from deformsim.composite.backgrounds import PROCEDURAL_KINDS, fit, load_photo, procedural, scan_backgrounds, warn_skipped
+from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inrange_matte
+from deformsim.config import CompositeConfig
+from deformsim.dataset import VARIANT_MANIFEST
+from deformsim.errors import UserError
+from deformsim.layout import RENDER_KINDS, Layout
+from deformsim.manifest import read_manifest
+
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+_STATE: dict = {}
+
+
+def stable_int(iid: str) -> int:
+    """A process-independent 64-bit integer for an image id (unlike ``hash``)."""
+    return int.from_bytes(hashlib.blake2b(iid.encode(), digest_size=8).digest(), "little")
+
+
+def default_name(cfg: CompositeConfig) -> str:
+    return "backgrounds" if cfg.backgrounds else "procedural"
+
+
+def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: int = 0, progress: bool = True) -> Path:
+    """Composite every image of the dataset at ``root`` onto backgrounds; returns the variant folder.
+
+    Inputs are checked before any work (:class:`UserError`); an existing variant of the same name is
+    replaced only when the new one is complete.
+    """
+    layout = Layout(Path(root))
+    manifest = read_manifest(layout.root)
+    name = name or default_name(cfg)
+    if not _NAME.match(name) or name in RENDER_KINDS:
+        raise UserError(f"invalid variant name {name!r}: use letters, digits, '_', '-', '.', not {'/'.join(RENDER_KINDS)}")
+    photos = [str(p) for p in scan_backgrounds(cfg.backgrounds)] if cfg.backgrounds else []
+    source = "rgba" if cfg.matte == "alpha" else "green"
+    jobs = _jobs(layout, manifest, source)
+
+    staging = layout.root / "variants" / ".staging"
+    staging.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f"{name}-", dir=staging))
+    try:
+        (tmp / "images").mkdir()
+        state = {"cfg": cfg.model_dump(), "seed": seed, "photos": photos, "out": str(tmp / "images"),
+                 "prefix": f"variants/{name}/images"}
+        rows, bad = _run(jobs, state, _workers(cfg.workers, len(jobs)), progress)
+        for path, reason in sorted(bad.items()):
+            warn_skipped(Path(path), reason)
+        if photos:
+            base = Path(cfg.backgrounds)
+            for r in rows:
+                r["background"] = str(Path(r["background"]).relative_to(base))
+        df = pd.DataFrame(rows).sort_values("id").reset_index(drop=True)
+        df.to_parquet(tmp / VARIANT_MANIFEST, index=False)
+        write_json(tmp / "composite.json", {"name": name, "seed": seed, **cfg.model_dump(mode="json")})
+        final = _swap(tmp, layout.variant_dir(name), staging)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return final
+
+
+def _jobs(layout: Layout, manifest: pd.DataFrame, source: str) -> list[tuple[str, str, str | None]]:
+    if manifest.empty:
+        raise UserError(f"dataset {layout.root} has no images")
+    jobs = []
+    for row in manifest.itertuples(index=False):
+        src = layout.root / getattr(row, source)
+        if not src.is_file():
+            raise UserError(f"image missing: {src} (is the dataset at {layout.root} complete?)")
+        exact = layout.root / row.rgba if "rgba" in manifest.columns else None
+        jobs.append((row.id, str(src), str(exact) if exact is not None and exact.is_file() else None))
+    return jobs
+
+
+def _workers(requested: int, n: int) -> int:
+    if requested:
+        return max(1, min(requested, n))
+    return max(1, min(os.cpu_count() or 1, 8, math.ceil(n / 16)))
+
+
+def _run(jobs: list, state: dict, workers: int, progress: bool) -> tuple[list[dict], dict[str, str]]:
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    size = max(1, min(32, len(jobs) // (workers * 4) or 1))
+    chunks = [jobs[i : i + size] for i in range(0, len(jobs), size)]
+    rows, bad = [], {}
+    bar = Progress(TextColumn("composite"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
+                   disable=not progress)
+    with bar:
+        task = bar.add_task("composite", total=len(jobs))
+        if workers == 1:
+            _init(state)
+            results = (_chunk(c) for c in chunks)
+            pool = None
+        else:
+            pool = ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(state,))
+            results = (f.result() for f in as_completed([pool.submit(_chunk, c) for c in chunks]))
+        try:
+            for chunk_rows, chunk_bad in results:
+                rows.extend(chunk_rows)
+                bad.update(chunk_bad)
+                bar.advance(task, len(chunk_rows))
+        finally:
+            if pool is not None:
+                pool.shutdown(cancel_futures=True)
+    return rows, bad
+
+
+def _init(state: dict) -> None:
+    _STATE.clear()
+    _STATE.update(state, cfg=CompositeConfig.model_validate(state["cfg"]), bad={})
+
+
+def _init_worker(state: dict) -> None:
+    _init(state)
+    cv2.setNumThreads(1)  # the pool is the parallelism
+
+
+def _chunk(jobs: list) -> tuple[list[dict], dict[str, str]]:
+    _STATE["bad"] = {}
+    return [composite_one(*job) for job in jobs], _STATE["bad"]
+
+
+def _read(path: str, flags: int) -> np.ndarray:
+    img = cv2.imread(path, flags)
+    if img is None:
+        raise UserError(f"cannot read image {path}")
+    return cv2.cvtColor(img, cv2.COLOR_BGRA2RGBA if img.shape[2] == 4 else cv2.COLOR_BGR2RGB)
+
+
+def composite_one(iid: str, src: str, exact: str | None) -> dict:
+    """Matte, background and composite one image (worker side); writes it and returns its manifest row."""
+    cfg, rng = _STATE["cfg"], np.random.default_rng([_STATE["seed"], stable_int(iid)])
+    if cfg.matte == "alpha":
+        alpha, fg = alpha_matte(_read(src, cv2.IMREAD_UNCHANGED))
+        iou = float("nan")
+    else:
+        key = chroma_matte if cfg.matte == "chroma" else inrange_matte
+        alpha, fg = key(_read(src, cv2.IMREAD_COLOR), cfg)
+        iou = binary_iou(alpha, _read(exact, cv2.IMREAD_UNCHANGED)[..., 3] / 255.0) if exact else float("nan")
+    h, w = alpha.shape
+    bg, info = _background(rng, cfg, h, w)
+    out = fg + (1.0 - alpha)[..., None] * bg.astype(np.float32)
+    out = np.clip(np.rint(out), 0, 255).astype(np.uint8)
+    if not cv2.imwrite(os.path.join(_STATE["out"], f"{iid}.png"), cv2.cvtColor(out, cv2.COLOR_RGB2BGR)):
+        raise OSError(f"cannot write composite of {iid} to {_STATE['out']}")
+    return {"id": iid, "image": f"{_STATE['prefix']}/{iid}.png", "matte": cfg.matte, **info, "matte_iou": iou}
+
+
+def _background(rng: np.random.Generator, cfg: CompositeConfig, h: int, w: int) -> tuple[np.ndarray, dict]:
+    photos = _STATE["photos"]
+    if not photos:
+        kind, sub = PROCEDURAL_KINDS[int(rng.integers(len(PROCEDURAL_KINDS)))], int(rng.integers(2**31))
+        info = {"background": f"procedural:{kind}:{sub}", "bg_x": 0.0, "bg_y": 0.0, "bg_scale": 1.0, "bg_flip": False}
+        return procedural(kind, sub, h, w), info
+    first = int(rng.integers(len(photos)))
+    smax = cfg.scale_jitter[1]
+    for k in range(len(photos)):  # a corrupt photo deterministically falls through to the next one
+        path = photos[(first + k) % len(photos)]
+        try:
+            photo = load_photo(path, math.ceil(w * smax), math.ceil(h * smax))
+        except Exception as exc:  # PIL raises many types for corrupt data
+            _STATE["bad"][path] = str(exc) or type(exc).__name__
+            continue
+        bg, info = fit(photo, h, w, rng, cfg.scale_jitter, cfg.flip)
+        return bg, {"background": path, **info}
+    raise UserError("no background photo could be decoded: " + ", ".join(sorted(_STATE["bad"])))
+
+
+def _swap(tmp: Path, final: Path, staging: Path) -> Path:
+    """Move the finished ``tmp`` folder onto ``final``; the old variant is removed only afterwards."""
+    old = staging / f"{final.name}.old-{uuid.uuid4().hex[:8]}"
+    if final.exists():
+        os.replace(final, old)
+    os.replace(tmp, final)
+    shutil.rmtree(old, ignore_errors=True)
+    return final

