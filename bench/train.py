@@ -3,7 +3,7 @@
     python bench/train.py [DATA [--variant NAME]] [--size 128] [--epochs 3] [--n 48]
 
 DATA is a generated dataset or a folder of intact/ + deformed/ photos; without it, an easy synthetic set
-of n + n blob images (tests/learn/blobs.py) is made. Weights come from the offline source. Prints the mean
+of n + n blob images (tests/learn/blobs.py) is made. Prints the mean
 epoch time of each mode, their ratio, the one-off cost of filling the cache, and both validation accuracies.
 """
 
@@ -29,6 +29,9 @@ def main() -> None:
     ap.add_argument("--size", type=int, default=128)
     ap.add_argument("--epochs", type=int, default=3)
     ap.add_argument("--n", type=int, default=48, help="blob images per class when no DATA is given")
+    ap.add_argument("--backbone", default="vgg16")
+    ap.add_argument("--weights", default="offline", help="timings do not depend on it; 'none' needs no package")
+    ap.add_argument("--device", default="auto")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["DEFORMSIM_CACHE"] = str(Path(tmp) / "cache")  # start with an empty feature cache
@@ -41,9 +44,13 @@ def main() -> None:
             from blobs import make_blobs
 
             table = make_blobs(Path(tmp) / "blobs", args.n, size=args.size)
-        cfg = TrainConfig(weights="offline", image_size=args.size, epochs=args.epochs)
-        print(f"{len(table)} images at {args.size} px, {cfg.backbone}, batch {cfg.batch_size}, {args.epochs} epochs, "
-              f"{os.cpu_count()} cores")
+        cfg = TrainConfig(backbone=args.backbone, weights=args.weights, image_size=args.size, epochs=args.epochs,
+                          device=args.device)
+        import torch
+
+        where = torch.cuda.get_device_name() if cfg.device != "cpu" and torch.cuda.is_available() else f"{os.cpu_count()} CPU cores"
+        print(f"{len(table)} images at {args.size} px, {cfg.backbone} ({cfg.weights} weights), batch {cfg.batch_size}, "
+              f"{args.epochs} epochs, {where}")
         results = {}
         for cached in (False, True):
             t0 = time.perf_counter()

@@ -174,6 +174,7 @@ class TrainConfig(_Model):
     threshold: float = Field(0.5, gt=0, lt=1)
     variants: list[str] = ["black", "backgrounds"]
     seed: int = 0
+    device: Literal["auto", "cpu", "cuda"] = Field("auto", description="auto = cuda when available")
 
 
 class Config(_Model):

@@ -122,8 +122,8 @@ def test_user_material_is_created_once_and_updated(can):
     assert can["cube_rough"] == pytest.approx(0.2)
 
 
-def test_tiny_render_shows_the_can(tmp_path):
-    out = tmp_path / "can.png"
+def test_tiny_renders_show_the_can_and_each_new_label(tmp_path):
+    """Two renders in one process with persistent data: the second must show the second label."""
     res = run_blender(f"""
 import json, math, bpy, numpy as np
 from deformsim.blender.can import build_can
@@ -131,7 +131,6 @@ from deformsim.blender.materials import set_label
 from deformsim.sampling import LabelParams
 bpy.ops.wm.read_factory_settings(use_empty=True)
 obj = build_can()
-set_label(obj, LabelParams(0.0, 0.9, 0.8, 0.6, 3, 7, "COLA"), 128, 64)
 sc = bpy.context.scene
 sc.world = bpy.data.worlds.new("W")
 cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
@@ -143,14 +142,19 @@ sc.render.engine = "CYCLES"
 sc.cycles.samples = 2
 sc.render.resolution_x = sc.render.resolution_y = 64
 sc.render.film_transparent = True
+sc.render.use_persistent_data = True
 sc.render.image_settings.color_mode = "RGBA"
-sc.render.filepath = r"{out}"
-bpy.ops.render.render(write_still=True)
-img = bpy.data.images.load(r"{out}")
-px = np.array(img.pixels[:]).reshape(64, 64, 4)
-print(json.dumps(dict(cover=float((px[..., 3] > 0.5).mean()), rgb=px[px[..., 3] > 0.5, :3].mean(0).tolist())))
+out = []
+for i, hue in enumerate((0.0, 0.33)):
+    set_label(obj, LabelParams(hue, 0.9, 0.8, 0.6, 1, 7, "COLA"), 128, 64)
+    sc.render.filepath = r"{tmp_path}/can%d.png" % i
+    bpy.ops.render.render(write_still=True)
+    px = np.array(bpy.data.images.load(sc.render.filepath).pixels[:]).reshape(64, 64, 4)
+    out.append(dict(cover=float((px[..., 3] > 0.5).mean()), rgb=px[px[..., 3] > 0.5, :3].mean(0).tolist()))
+print(json.dumps(out))
 """)
-    assert out.exists()
-    assert 0.1 < res["cover"] < 0.9, "the can should fill part of the frame"
-    r, g, b = res["rgb"]
-    assert r > b, "the red label should show"
+    for r in res:
+        assert 0.1 < r["cover"] < 0.9, "the can should fill part of the frame"
+    (r0, g0, _), (r1, g1, _) = res[0]["rgb"], res[1]["rgb"]
+    assert r0 > 1.5 * g0, "the red label should show"
+    assert g1 > 1.5 * r1, "the green label should replace it"

@@ -38,12 +38,13 @@ def cache_key(model: DeformNet, paths: list[str], size: int) -> str:
 def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, progress: bool = False) -> torch.Tensor:
     """Frozen-stem activations (float32) of ``paths``, computed in eval mode without gradients."""
     loader = torch.utils.data.DataLoader(ImageSet(paths, size), batch_size=batch_size)
+    device = model.mean.device
     was_training = model.training
     model.eval()
     out = []
     with torch.inference_mode():
         for x in tqdm(loader, desc="frozen layers", unit="batch", disable=not progress, leave=False):
-            out.append(model.stem(x))
+            out.append(model.stem(x.to(device)).cpu())
     model.train(was_training)
     return torch.cat(out)
 

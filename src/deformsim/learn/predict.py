@@ -11,7 +11,7 @@ from deformsim.config import TrainConfig
 from deformsim.errors import UserError
 from deformsim.learn.data import ImageSet
 from deformsim.learn.models import DeformNet, build
-from deformsim.learn.train import MODEL_FILE, set_threads
+from deformsim.learn.train import MODEL_FILE, pick_device, set_threads
 
 LAYERS = ("penultimate", "pooled")
 
@@ -44,6 +44,8 @@ class Predictor:
 
     def __init__(self, ckpt: dict, path: Path):
         self.model, self.cfg = restore(ckpt)
+        self.device = pick_device(self.cfg.device)
+        self.model.to(self.device)
         self.path = path
         self.weights: str = ckpt.get("weights", "")
         self.classes: list[str] = ckpt.get("classes", ["intact", "deformed"])
@@ -53,11 +55,12 @@ class Predictor:
     def _batches(self, paths):
         loader = torch.utils.data.DataLoader(ImageSet(list(paths), self.cfg.image_size), batch_size=self.cfg.batch_size)
         with torch.inference_mode():
-            yield from loader
+            for x in loader:
+                yield x.to(self.device)
 
     def predict_proba(self, paths: list[str | Path]) -> np.ndarray:
         """P(deformed) per image, float64 (N,)."""
-        out = [self.model.proba(x) for x in self._batches(paths)]
+        out = [self.model.proba(x).cpu() for x in self._batches(paths)]
         return torch.cat(out).double().numpy() if out else np.zeros(0)
 
     def predict(self, paths: list[str | Path]) -> tuple[np.ndarray, list[str]]:
@@ -69,7 +72,7 @@ class Predictor:
         """Per-image embeddings (N, D): the last hidden layer (``penultimate``) or pooled backbone features."""
         if layer not in LAYERS:
             raise UserError(f"unknown feature layer '{layer}' (choose from {', '.join(LAYERS)})")
-        out = [self.model.embed(self.model.stem(x), layer) for x in self._batches(paths)]
+        out = [self.model.embed(self.model.stem(x), layer).cpu() for x in self._batches(paths)]
         return torch.cat(out).numpy() if out else np.zeros((0, 0), np.float32)
 
 

@@ -18,6 +18,7 @@ from tqdm import tqdm
 
 from deformsim.atomic import atomic_path, write_json
 from deformsim.config import TrainConfig
+from deformsim.errors import UserError
 from deformsim.learn.data import CLASSES, ImageSet, augmenter, check_table, split
 from deformsim.learn.features import cached_stem
 from deformsim.learn.models import DeformNet, build
@@ -37,23 +38,30 @@ def set_threads() -> None:
     torch.set_num_threads(max(1, len(os.sched_getaffinity(0))))
 
 
+def pick_device(name: str) -> torch.device:
+    """``auto``: cuda when available, else cpu."""
+    if name == "cuda" and not torch.cuda.is_available():
+        raise UserError("train.device is cuda but torch sees no CUDA GPU (use auto or cpu)")
+    return torch.device("cuda" if name == "cuda" or (name == "auto" and torch.cuda.is_available()) else "cpu")
+
+
 class _Inputs:
     """Stem activations for rows of the table: from the cache, or images through the frozen stem."""
 
-    def __init__(self, model: DeformNet, paths: list[str], cfg: TrainConfig, progress: bool):
-        self.model = model
+    def __init__(self, model: DeformNet, paths: list[str], cfg: TrainConfig, device: torch.device, progress: bool):
+        self.model, self.device = model, device
         self.feats = None
         self.plain = ImageSet(paths, cfg.image_size)
         self.augmented = ImageSet(paths, cfg.image_size, augmenter(cfg.image_size)) if cfg.augment else self.plain
         if cfg.cache_features and not cfg.augment:
-            self.feats, _ = cached_stem(model, paths, cfg.image_size, cfg.batch_size, progress)
+            self.feats = cached_stem(model, paths, cfg.image_size, cfg.batch_size, progress)[0].to(device)
 
     def __call__(self, rows: torch.Tensor, train: bool) -> torch.Tensor:
         if self.feats is not None:
             return self.feats[rows].float()
         images = self.augmented if train else self.plain
         with torch.no_grad():
-            return self.model.stem(torch.stack([images[int(i)] for i in rows]))
+            return self.model.stem(torch.stack([images[int(i)] for i in rows]).to(self.device))
 
 
 def _evaluate(model: DeformNet, inputs: _Inputs, rows: torch.Tensor, y: torch.Tensor, cfg: TrainConfig) -> tuple[float | None, float | None]:
@@ -62,8 +70,9 @@ def _evaluate(model: DeformNet, inputs: _Inputs, rows: torch.Tensor, y: torch.Te
     model.eval()
     with torch.no_grad():
         logits = torch.cat([model.tail(inputs(b, train=False)) for b in rows.split(cfg.batch_size)])
-    loss = nn.functional.binary_cross_entropy_with_logits(logits, y[rows]).item()
-    acc = ((torch.sigmoid(logits) >= cfg.threshold).float() == y[rows]).float().mean().item()
+    target = y[rows.to(y.device)]
+    loss = nn.functional.binary_cross_entropy_with_logits(logits, target).item()
+    acc = ((torch.sigmoid(logits) >= cfg.threshold).float() == target).float().mean().item()
     return loss, acc
 
 
@@ -73,10 +82,12 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     start = time.perf_counter()
     set_threads()
     table = table.reset_index(drop=True)
+    device = pick_device(cfg.device)
     model, weights = build(cfg)
+    model.to(device)
     train_rows, val_rows = (torch.as_tensor(r, dtype=torch.long) for r in split(table, cfg.split, cfg.seed))
-    y = torch.as_tensor(table["y"].to_numpy(), dtype=torch.float32)
-    inputs = _Inputs(model, list(table["path"]), cfg, progress)
+    y = torch.as_tensor(table["y"].to_numpy(), dtype=torch.float32, device=device)
+    inputs = _Inputs(model, list(table["path"]), cfg, device, progress)
     params = [p for p in model.parameters() if p.requires_grad]
     opt = torch.optim.Adam(params, lr=cfg.lr)
     loss_fn = nn.BCEWithLogitsLoss()
@@ -89,13 +100,13 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
         model.train()
         total, correct = 0.0, 0
         for batch in train_rows[torch.randperm(len(train_rows), generator=order)].split(cfg.batch_size):
-            logits = model.tail(inputs(batch, train=True))
-            loss = loss_fn(logits, y[batch])
+            logits, target = model.tail(inputs(batch, train=True)), y[batch.to(device)]
+            loss = loss_fn(logits, target)
             opt.zero_grad()
             loss.backward()
             opt.step()
             total += loss.item() * len(batch)
-            correct += int(((torch.sigmoid(logits) >= cfg.threshold).float() == y[batch]).sum())
+            correct += int(((torch.sigmoid(logits) >= cfg.threshold).float() == target).sum())
         val_loss, val_acc = _evaluate(model, inputs, val_rows, y, cfg)
         row = {"epoch": epoch, "loss": total / len(train_rows), "acc": correct / len(train_rows),
                "val_loss": val_loss, "val_acc": val_acc, "seconds": time.perf_counter() - t0}
@@ -106,7 +117,7 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     seconds = time.perf_counter() - start
     split_ids = {"train": table["id"].iloc[train_rows.numpy()].tolist(), "val": table["id"].iloc[val_rows.numpy()].tolist()}
     with atomic_path(model_path) as tmp:
-        torch.save({"state_dict": model.state_dict(), "config": cfg.model_dump(mode="json"), "weights": weights,
+        torch.save({"state_dict": {k: v.cpu() for k, v in model.state_dict().items()}, "config": cfg.model_dump(mode="json"), "weights": weights,
                     "classes": list(CLASSES), "history": history, "split": split_ids}, tmp)
     write_json(out_dir / "train.json", {"weights": weights, "seconds": seconds, "history": history,
                                         "n_train": len(train_rows), "n_val": len(val_rows),

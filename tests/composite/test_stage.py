@@ -1,0 +1,134 @@
+"""The composite stage and command: variants, determinism, bad backgrounds, atomic output."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from contextlib import nullcontext
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+import typer
+from typer.testing import CliRunner
+
+from deformsim.commands.composite import register
+from deformsim.composite import BackgroundWarning, composite
+from deformsim.config import CompositeConfig
+from deformsim.dataset import list_variants, variant_table
+from deformsim.errors import UserError
+
+
+def _photos(tmp_path, backgrounds_dir, n=3):
+    folder = tmp_path / "bg"
+    (folder / "nested").mkdir(parents=True)
+    srcs = sorted(backgrounds_dir.glob("*.jpg"))[:n]
+    for i, p in enumerate(srcs):
+        shutil.copy(p, (folder / "nested" if i % 2 else folder) / p.name)
+    return folder
+
+
+def _snapshot(folder):
+    return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_procedural_variant_is_readable(dataset):
+    variant = composite(dataset, CompositeConfig(), None, seed=0, progress=False)
+    assert variant == dataset / "variants" / "procedural"
+    assert "procedural" in list_variants(dataset)
+    table = variant_table(dataset, "procedural")
+    assert len(table) == 8 and set(table["y"]) == {0, 1}
+    assert table["background"].str.startswith("procedural:").all()
+    assert all(os.path.isfile(p) for p in table["path"])
+    assert not list((dataset / "variants" / ".staging").iterdir())
+
+
+def test_same_seed_same_composites_any_workers(dataset):
+    one = composite(dataset, CompositeConfig(workers=1), "a", seed=5, progress=False)
+    two = composite(dataset, CompositeConfig(workers=2), "b", seed=5, progress=False)
+    other = composite(dataset, CompositeConfig(workers=1), "c", seed=6, progress=False)
+    a, b, c = (pd.read_parquet(v / "manifest.parquet") for v in (one, two, other))
+    cols = ["id", "background", "bg_x", "bg_y", "bg_scale", "bg_flip"]
+    pd.testing.assert_frame_equal(a[cols], b[cols])
+    assert _snapshot(one / "images") == _snapshot(two / "images")
+    assert not a["background"].equals(c["background"])
+
+
+def test_photo_backgrounds_recorded(dataset, tmp_path, backgrounds_dir):
+    folder = _photos(tmp_path, backgrounds_dir)
+    cfg = CompositeConfig(backgrounds=folder, scale_jitter=(1.0, 1.5))
+    variant = composite(dataset, cfg, None, seed=2, progress=False)
+    assert variant.name == "backgrounds"
+    df = pd.read_parquet(variant / "manifest.parquet")
+    names = {str(p.relative_to(folder)) for p in folder.rglob("*.jpg")}
+    assert set(df["background"]) <= names and any("nested/" in n for n in df["background"])
+    assert df["bg_scale"].between(1.0, 1.5).all() and df["bg_x"].between(0, 1).all()
+    assert df["bg_flip"].dtype == bool
+
+
+def test_corrupt_backgrounds_skipped_and_named(dataset, tmp_path):
+    folder = tmp_path / "bg"
+    folder.mkdir()
+    rng = np.random.default_rng(0)
+    cv2.imwrite(str(folder / "good.png"), rng.integers(0, 255, (120, 160, 3), dtype=np.uint8))
+    (folder / "garbage.jpg").write_bytes(b"not an image")
+    _, jpg = cv2.imencode(".jpg", rng.integers(0, 255, (300, 400, 3), dtype=np.uint8))
+    (folder / "truncated.jpg").write_bytes(jpg.tobytes()[: len(jpg) // 3])
+    (folder / "notes.txt").write_text("ignored")
+    with pytest.warns(BackgroundWarning) as record:
+        variant = composite(dataset, CompositeConfig(backgrounds=folder), "bad", seed=0, progress=False)
+    messages = " ".join(str(w.message) for w in record)
+    assert "garbage.jpg" in messages and "truncated.jpg" in messages and "notes.txt" not in messages
+    assert set(pd.read_parquet(variant / "manifest.parquet")["background"]) == {"good.png"}
+
+
+@pytest.mark.parametrize("make", ["missing", "empty", "only_bad"])
+def test_bad_folder_fails_before_work(dataset, tmp_path, make):
+    existing = composite(dataset, CompositeConfig(), "backgrounds", seed=0, progress=False)
+    before = _snapshot(existing)
+    folder = tmp_path / "bg"
+    if make != "missing":
+        folder.mkdir()
+    if make == "only_bad":
+        (folder / "x.jpg").write_bytes(b"junk")
+    with pytest.warns(BackgroundWarning) if make == "only_bad" else nullcontext():
+        with pytest.raises(UserError) as err:
+            composite(dataset, CompositeConfig(backgrounds=folder), None, seed=0, progress=False)
+    assert "\n" not in str(err.value) and str(folder) in str(err.value)
+    assert _snapshot(existing) == before
+
+
+def test_failed_run_keeps_existing_variant(dataset):
+    existing = composite(dataset, CompositeConfig(), "procedural", seed=0, progress=False)
+    before = _snapshot(existing)
+    victim = sorted((dataset / "images" / "green").glob("*.png"))[-1]
+    victim.write_bytes(b"broken png")
+    with pytest.raises(UserError, match=victim.name):
+        composite(dataset, CompositeConfig(workers=2), "procedural", seed=9, progress=False)
+    assert _snapshot(existing) == before
+    assert not list((dataset / "variants" / ".staging").iterdir())
+
+
+def test_bad_variant_name(dataset):
+    with pytest.raises(UserError, match="variant name"):
+        composite(dataset, CompositeConfig(), "../x", seed=0, progress=False)
+    with pytest.raises(UserError, match="variant name"):
+        composite(dataset, CompositeConfig(), "green", seed=0, progress=False)
+
+
+def test_cli(dataset, tmp_path, backgrounds_dir):
+    app = typer.Typer()
+    register(app)
+    app.command("noop")(lambda: None)  # keep `composite` a subcommand
+    runner = CliRunner()
+    folder = _photos(tmp_path, backgrounds_dir, 2)
+    res = runner.invoke(app, ["composite", str(dataset), "--backgrounds", str(folder), "--seed", "3",
+                              "--workers", "1", "--no-progress"])
+    assert res.exit_code == 0, res.output
+    assert "8 composites" in res.output and (dataset / "variants" / "backgrounds" / "manifest.parquet").is_file()
+    res = runner.invoke(app, ["composite", str(dataset), "--matte", "alpha", "--name", "exact", "--no-progress"])
+    assert res.exit_code == 0 and pd.read_parquet(dataset / "variants" / "exact" / "manifest.parquet")["matte"].eq("alpha").all()
+    res = runner.invoke(app, ["composite", str(dataset), "--backgrounds", str(tmp_path / "nope")])
+    assert res.exit_code == 2 and "background folder not found" in res.output
+
