@@ -21,7 +21,8 @@ def green_screen_photo(seed: int, size: int = 96, ss: int = 4) -> tuple[np.ndarr
     """A fake photo of an object in front of a real green screen, and its exact alpha.
 
     Uneven, off-key screen (shading gradient, vignette, a soft shadow), a shaded can-like object with a
-    lid and a dark band, green spill on its rim, sensor noise, the camera's JPEG compression, then resizing: no alpha channel.
+    lid and a dark band, green spill on its rim, sensor noise, the camera's JPEG compression, then
+    resizing. No alpha channel.
     """
     rng = np.random.default_rng(seed)
     n = size * ss
@@ -30,10 +31,12 @@ def green_screen_photo(seed: int, size: int = 96, ss: int = 4) -> tuple[np.ndarr
     light = (0.6 + 0.5 * (xx * rng.uniform(-1, 1) + yy * rng.uniform(-1, 1) + 1) / 2) * (
         1 - 0.5 * ((xx - 0.5) ** 2 + (yy - 0.5) ** 2)
     )
-    cx, cy, rx, ry = rng.uniform(0.4, 0.6), rng.uniform(0.4, 0.6), rng.uniform(0.15, 0.25), rng.uniform(0.25, 0.35)
+    cx, cy = rng.uniform(0.4, 0.6, 2)
+    rx, ry = rng.uniform(0.15, 0.25), rng.uniform(0.25, 0.35)
     shadow = 1 - 0.3 * np.exp(-(((xx - cx - 0.12) / rx) ** 2 + ((yy - cy - 0.08) / ry) ** 2))
     img = screen * (light * shadow)[..., None]
-    mask = ((np.abs(xx - cx) < rx) & (np.abs(yy - cy) < ry)) | (((xx - cx) / rx) ** 2 + ((yy - cy - ry) / (0.3 * rx)) ** 2 < 1)
+    mask = (np.abs(xx - cx) < rx) & (np.abs(yy - cy) < ry)
+    mask |= ((xx - cx) / rx) ** 2 + ((yy - cy - ry) / (0.3 * rx)) ** 2 < 1
     mask |= ((xx - cx) / rx) ** 2 + ((yy - cy + ry) / (0.3 * rx)) ** 2 < 1
     hsv = np.array([[[rng.choice([0, 15, 110, 130, 160]), rng.uniform(80, 220), 200]]], np.uint8)
     base = cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)[0, 0].astype(np.float32)

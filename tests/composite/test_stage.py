@@ -128,7 +128,8 @@ def test_cli(dataset, tmp_path, backgrounds_dir):
     assert res.exit_code == 0, res.output
     assert "8 composites" in res.output and (dataset / "variants" / "backgrounds" / "manifest.parquet").is_file()
     res = runner.invoke(app, ["composite", str(dataset), "--matte", "alpha", "--name", "exact", "--no-progress"])
-    assert res.exit_code == 0 and pd.read_parquet(dataset / "variants" / "exact" / "manifest.parquet")["matte"].eq("alpha").all()
+    assert res.exit_code == 0, res.output
+    assert pd.read_parquet(dataset / "variants" / "exact" / "manifest.parquet")["matte"].eq("alpha").all()
     res = runner.invoke(app, ["composite", str(dataset), "--backgrounds", str(tmp_path / "nope")])
     assert res.exit_code == 2 and "background folder not found" in res.output
 

@@ -97,8 +97,9 @@ def _body(m: _Mesh) -> dict[str, np.ndarray]:
                              np.full(SEGMENTS, LID_Z - SCORE_DEPTH)])
     prev = edge
     for t in np.linspace(0, 1, 12)[1:]:
-        cur = m.add(lid_pts * (1 - t) + score * t)
-        m.verts[-1][:, 2] = LID_Z if t < 1 else LID_Z - SCORE_DEPTH
+        pts = lid_pts * (1 - t) + score * t
+        pts[:, 2] = LID_Z if t < 1 else LID_Z - SCORE_DEPTH
+        cur = m.add(pts)
         m.bridge(prev, cur, "lid")
         prev = cur
     score_idx = prev

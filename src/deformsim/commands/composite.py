@@ -21,7 +21,9 @@ def register(app: typer.Typer) -> None:
         name: Optional[str] = typer.Option(
             None, "--name", help="variant name (default: 'backgrounds' with a folder, else 'procedural')"
         ),
-        matte: Optional[str] = typer.Option(None, "--matte", help="chroma (soft green key), alpha (exact render alpha) or inrange (the paper's hard key)"),
+        matte: Optional[str] = typer.Option(
+            None, "--matte", help="chroma (soft green key), alpha (exact render alpha), inrange (the paper's key)"
+        ),
         seed: int = typer.Option(0, "--seed", help="seed of every background choice, crop and flip"),
         workers: Optional[int] = typer.Option(None, "--workers", help="processes (0 = automatic)"),
         config: Optional[str] = typer.Option(

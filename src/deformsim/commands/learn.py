@@ -6,12 +6,10 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
+from deformsim.cliutil import console, fail_cleanly
 from deformsim.errors import UserError
-
-console = Console()
 
 
 def load_table(data: Path, variant: str | None, default_variant: str):
@@ -34,16 +32,19 @@ def train(
     epochs: Optional[int] = typer.Option(None, help="override train.epochs"),
     backbone: Optional[str] = typer.Option(None, help="override train.backbone (vgg16, mobilenet_v2)"),
     weights: Optional[str] = typer.Option(None, help="override train.weights (imagenet, offline, none)"),
-    config: Optional[Path] = typer.Option(None, help="config YAML or preset name"),
+    device: Optional[str] = typer.Option(None, help="override train.device (auto, cpu, cuda)"),
+    config: Optional[str] = typer.Option(None, "--config", "-c", help="YAML config file or preset name"),
+    progress: bool = typer.Option(True, "--progress/--no-progress"),
 ) -> None:
     """Train the deformation classifier on a dataset variant (80/20 split, grouped by object)."""
     from deformsim.config import load_config
 
-    cfg = load_config(config, {"train.epochs": epochs, "train.backbone": backbone, "train.weights": weights}).train
+    cfg = load_config(config, {"train.epochs": epochs, "train.backbone": backbone, "train.weights": weights,
+                               "train.device": device}).train
     table = load_table(data, variant, cfg.variants[0])
     from deformsim.learn.train import fit
 
-    result = fit(table, cfg, out)
+    result = fit(table, cfg, out, progress=progress)
     last = result.history[-1]
     val = "n/a" if last["val_acc"] is None else f"{last['val_acc']:.3f}"
     console.print(f"weights: {result.weights}")
@@ -89,6 +90,5 @@ def export(
 
 
 def register(app: typer.Typer) -> None:
-    app.command()(train)
-    app.command()(predict)
-    app.command()(export)
+    for command in (train, predict, export):
+        app.command()(fail_cleanly(command))

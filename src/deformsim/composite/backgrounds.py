@@ -146,7 +146,8 @@ def procedural(kind: str, seed: int, h: int, w: int) -> np.ndarray:
             elif shape == 1:
                 cv2.rectangle(img, (cx - r, cy - r // 2), (cx + r, cy + r // 2), col, -1, cv2.LINE_AA)
             else:
-                cv2.line(img, (cx, cy), (int(rng.integers(0, w)), int(rng.integers(0, h))), col, max(1, r // 6), cv2.LINE_AA)
+                end = (int(rng.integers(0, w)), int(rng.integers(0, h)))
+                cv2.line(img, (cx, cy), end, col, max(1, r // 6), cv2.LINE_AA)
         img = cv2.GaussianBlur(img, (3, 3), 0.7)
     else:
         raise UserError(f"unknown procedural background kind {kind!r} (have: {', '.join(PROCEDURAL_KINDS)})")

@@ -3,11 +3,11 @@
 A matte is ``(alpha, fg)``: ``alpha`` in [0, 1] (float32, HxW) and ``fg`` the *premultiplied* foreground
 (float32, HxWx3, 0-255), so a composite over ``bg`` is ``fg + (1 - alpha) * bg``.
 
-The chroma key follows the paper (key colour, tolerance, closing, opening, erosion) but keys on the screen
-channel's dominance ``d = g - max(r, b)``, normalised by the *local* screen level, so uneven, noisy real
-screens work. The hard mask only decides where the object surely is; in a band around its edge the alpha
-is solved from the local screen and object colours (``C = a F + (1 - a) B``) and the screen colour is
-removed from the edge (unmix + despill), which leaves a soft edge without a green fringe.
+The chroma key keeps the paper's settings (key colour, tolerance, opening, closing, erosion) but keys on the
+screen channel's dominance ``d = g - max(r, b)``, normalised by the *local* screen level, so uneven, off-key,
+noisy real screens work. The hard mask (opened against specks, closed against holes) only decides where the
+object surely is; in a band of the erosion's width around its edge, alpha is solved from the local screen
+and object dominance, then the screen colour is unmixed and despilled from the edge: a soft edge, no fringe.
 """
 
 from __future__ import annotations

@@ -23,7 +23,9 @@ import numpy as np
 import pandas as pd
 
 from deformsim.atomic import write_json
-from deformsim.composite.backgrounds import PROCEDURAL_KINDS, fit, load_photo, procedural, scan_backgrounds, warn_skipped
+from deformsim.composite.backgrounds import (
+    PROCEDURAL_KINDS, fit, load_photo, procedural, scan_backgrounds, warn_skipped,
+)
 from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inrange_matte
 from deformsim.config import CompositeConfig
 from deformsim.dataset import VARIANT_MANIFEST
@@ -54,7 +56,7 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
     manifest = read_manifest(layout.root)
     name = name or default_name(cfg)
     if not _NAME.match(name) or name in RENDER_KINDS:
-        raise UserError(f"invalid variant name {name!r}: use letters, digits, '_', '-', '.', not {'/'.join(RENDER_KINDS)}")
+        raise UserError(f"invalid variant name {name!r}: letters, digits, '_-.' and not {'/'.join(RENDER_KINDS)}")
     photos = [str(p) for p in scan_backgrounds(cfg.backgrounds)] if cfg.backgrounds else []
     source = "rgba" if cfg.matte == "alpha" else "green"
     jobs = _jobs(layout, manifest, source)

@@ -86,7 +86,7 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     model, weights = build(cfg)
     model.to(device)
     train_rows, val_rows = (torch.as_tensor(r, dtype=torch.long) for r in split(table, cfg.split, cfg.seed))
-    y = torch.as_tensor(table["y"].to_numpy(), dtype=torch.float32, device=device)
+    y = torch.tensor(table["y"].to_numpy(dtype="float32"), device=device)
     inputs = _Inputs(model, list(table["path"]), cfg, device, progress)
     params = [p for p in model.parameters() if p.requires_grad]
     opt = torch.optim.Adam(params, lr=cfg.lr)
