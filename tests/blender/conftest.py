@@ -12,6 +12,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:  # lets test modules import this helper as tests.blender.conftest under plain pytest
+    sys.path.insert(0, str(ROOT))
 PYTHON = ROOT / ".venv" / "bin" / "python"
 
 TINY_RENDER = {"render.resolution": 64, "render.samples": 4, "render.threads": 2}

@@ -8,6 +8,8 @@ from PIL import Image
 from deformsim.errors import UserError
 from deformsim.learn.data import expand_images, load_image, real_table
 
+pytestmark = pytest.mark.torch
+
 
 def photo(path, colour=(200, 30, 30)):
     path.parent.mkdir(parents=True, exist_ok=True)

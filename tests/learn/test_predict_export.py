@@ -19,6 +19,8 @@ from deformsim.learn.export import to_onnx
 from deformsim.learn.predict import load
 from deformsim.learn.train import fit
 
+pytestmark = pytest.mark.torch
+
 
 @pytest.fixture(scope="module")
 def model_dir(blobs, tmp_path_factory):

@@ -17,6 +17,8 @@ from deformsim.learn.models import build
 from deformsim.learn.predict import load
 from deformsim.learn.train import fit
 
+pytestmark = pytest.mark.torch
+
 CFG = TrainConfig(weights="offline", image_size=64, epochs=3, batch_size=16)
 
 

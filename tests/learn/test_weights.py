@@ -15,6 +15,8 @@ from deformsim.errors import UserError
 from deformsim.learn import weights as W
 from deformsim.learn.models import backbone_features
 
+pytestmark = pytest.mark.torch
+
 POOL5 = "functional_1/block5_pool_1/MaxPool2d:0"
 
 
