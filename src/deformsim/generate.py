@@ -163,7 +163,7 @@ def generate(cfg: Config, out: str | Path, progress: bool = True) -> GenerateRes
 def _remove_partial_files(layout: Layout) -> None:
     """Temporary files of an interrupted run (never valid output) are removed before resuming."""
     for kind in RENDER_KINDS:
-        for tmp in (layout.root / "images" / kind).glob(".*.tmp*"):
+        for tmp in (layout.root / "images" / kind).glob(".*"):
             tmp.unlink(missing_ok=True)
 
 

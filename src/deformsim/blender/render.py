@@ -19,6 +19,7 @@ from PIL import Image
 
 from deformsim.atomic import atomic_path
 from deformsim.blender import cameras as cams
+from deformsim.blender import materials
 from deformsim.blender.rig import Rig
 from deformsim.blender.world import World
 from deformsim.config import Config
@@ -42,7 +43,6 @@ class RenderContext:
     cameras: list
     target: tuple[float, float, float]  # bounding-box centre the cameras aim at
     camera_scale: float = 1.0
-    materials: object = None  # the deformsim.blender.materials module, when present
 
 
 def composite(rgba: np.ndarray, color: tuple[int, int, int]) -> np.ndarray:
@@ -78,28 +78,11 @@ def _render_to_array(scene, target: Path) -> tuple[np.ndarray, float]:
 def apply_state(ctx: RenderContext, p: SampleParams) -> None:
     """Put the scene in sample ``p``'s state (deformation, openings, surface, lighting)."""
     ctx.rig.set(p.keys, p.displacement, p.seal, p.tab)
-    if p.design is not None and ctx.materials is not None:
-        ctx.materials.set_label(ctx.obj, p.design)
-        _refresh_edited_images()
-    if p.material is not None and ctx.materials is not None:
-        ctx.materials.apply_material(ctx.obj, ctx.spec.material, p.material)
+    if p.design is not None:
+        materials.set_label(ctx.obj, p.design)
+    if p.material is not None:
+        materials.apply_material(ctx.obj, ctx.spec.material, p.material)
     ctx.world.set(p.hdri, p.hdri_rotation, p.hdri_strength)
-
-
-def _refresh_edited_images() -> None:
-    """Cycles' persistent data ignores in-place pixel edits: move each edited image to a new datablock."""
-    for img in list(bpy.data.images):
-        if not (img.is_dirty and img.users and img.source == "GENERATED"):
-            continue
-        pixels = np.empty(len(img.pixels), dtype=np.float32)
-        img.pixels.foreach_get(pixels)
-        fresh = bpy.data.images.new(img.name, *img.size, alpha=True, float_buffer=img.is_float)
-        fresh.colorspace_settings.name = img.colorspace_settings.name
-        fresh.pixels.foreach_set(pixels)
-        name = img.name
-        img.user_remap(fresh)
-        bpy.data.images.remove(img)
-        fresh.name = name
 
 
 def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> list[float]:

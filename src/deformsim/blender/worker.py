@@ -49,13 +49,11 @@ def setup(msg: dict):
     spec = load_spec(msg.get("spec_path"))
     scn.reset()
     scene = bpy.context.scene
-    materials = _materials_module()
     if cfg.object.mesh is None:
-        from deformsim.blender import can
+        from deformsim.blender import can, materials
 
         obj = can.build_can()
-        if materials is not None:
-            materials.can_materials(obj)
+        materials.can_materials(obj)
     else:
         from deformsim.blender.mesh_import import import_mesh
 
@@ -77,7 +75,6 @@ def setup(msg: dict):
         cameras=cameras,
         target=tuple(float(v) for v in (lo + hi) / 2),
         camera_scale=camera_scale,
-        materials=materials,
     )
     reply = {
         "ready": True,
@@ -87,14 +84,6 @@ def setup(msg: dict):
         "pid": os.getpid(),
     }
     return ctx, Layout(msg["out"]), reply
-
-
-def _materials_module():
-    try:
-        from deformsim.blender import materials
-    except ImportError:
-        return None
-    return materials
 
 
 def render(ctx, layout, params: dict) -> dict:
