@@ -2,16 +2,11 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "src"))
-SHARED = ROOT.parent / "shared" / "data"
-
-TINY = {"generate.n": 8, "render.resolution": 64, "render.samples": 4, "generate.seed": 3}
+from tests.util import SHARED, TINY
 
 
 @pytest.fixture(scope="session")

@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 from PIL import Image
 
-from conftest import ROOT, TINY
+from tests.util import ROOT, TINY
 from deformsim.config import load_config
 from deformsim.errors import UserError
 from deformsim.generate import generate
