@@ -70,6 +70,20 @@ class CameraConfig(_Model):
         return [_check_range(r, -360, 720) for r in v]
 
 
+class PoseConfig(_Model):
+    """How the object lies: tilted away from upright by ``tilt`` degrees about a random horizontal axis.
+
+    The paper renders the part upright (tilt 0); real parts also lie on their side or show their ends.
+    """
+
+    tilt: Range = (0.0, 0.0)
+
+    @field_validator("tilt")
+    @classmethod
+    def _tilt(cls, v: Range) -> Range:
+        return _check_range(v, 0, 180)
+
+
 class LightingConfig(_Model):
     """HDRI world lighting: a random EXR at a random rotation."""
 
@@ -182,6 +196,7 @@ class Config(_Model):
 
     object: ObjectConfig = ObjectConfig()
     camera: CameraConfig = CameraConfig()
+    pose: PoseConfig = PoseConfig()
     lighting: LightingConfig = LightingConfig()
     deform: DeformConfig = DeformConfig()
     render: RenderConfig = RenderConfig()

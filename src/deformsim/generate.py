@@ -33,7 +33,7 @@ log = get_logger(__name__)
 
 # Settings that do not change what is rendered: a resumed run may differ in these.
 _RUN_ONLY = {"generate": {"n", "workers", "recycle_every", "max_retries", "backend", "address", "gather", "preview"}}
-_DATA_SECTIONS = ("object", "camera", "lighting", "deform", "render", "generate")
+_DATA_SECTIONS = ("object", "camera", "pose", "lighting", "deform", "render", "generate")
 _PACKAGES = ("bpy", "numpy", "pydantic", "pandas", "pyarrow", "pillow", "opencv-python-headless", "torch", "torchvision")
 
 

@@ -39,6 +39,8 @@ def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camer
             **{f"disp_{k}": v for k, v in p.displacement.items()},
             "seal": p.seal,
             "tab": p.tab,
+            "pose_tilt": p.pose_tilt,
+            "pose_axis": p.pose_axis,
             "hdri": p.hdri,
             "hdri_rotation": p.hdri_rotation,
             "hdri_strength": p.hdri_strength,

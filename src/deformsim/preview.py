@@ -26,7 +26,7 @@ def grid(images: list[Image.Image], captions: list[tuple[str, tuple]], tile: int
     bar = max(14, tile // 8)
     rows = max(1, -(-len(images) // cols))
     sheet = Image.new("RGB", (cols * tile, rows * (tile + bar)), (255, 255, 255))
-    font = ImageFont.load_default(size=bar - 4)
+    font = ImageFont.load_default(size=max(8, bar - 6))
     draw = ImageDraw.Draw(sheet)
     for k, (img, (text, color)) in enumerate(zip(images, captions)):
         x, y = (k % cols) * tile, (k // cols) * (tile + bar)

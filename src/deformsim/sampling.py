@@ -7,7 +7,7 @@ be drawn in any order, by any worker, and a resumed run draws the same ones.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -60,7 +60,8 @@ class SampleParams:
     design: LabelParams | None = None
     material: MaterialParams | None = None
     extent: float = 0.0
-    extra: dict = field(default_factory=dict)
+    pose_tilt: float = 0.0  # degrees away from upright
+    pose_axis: float = 0.0  # azimuth (degrees) of the horizontal axis the object is tilted about
 
     @property
     def deformed(self) -> bool:
@@ -164,6 +165,9 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
             roughness=float(rng.uniform(*spec.material.roughness)),
         )
 
+    pose_tilt = float(rng.uniform(*cfg.pose.tilt))
+    pose_axis = float(rng.uniform(0, 360))
+
     return SampleParams(
         index=index,
         seed=seed,
@@ -180,4 +184,6 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
         design=design,
         material=material,
         extent=extent,
+        pose_tilt=pose_tilt,
+        pose_axis=pose_axis,
     )

@@ -20,6 +20,7 @@ from PIL import Image
 from deformsim.atomic import atomic_path
 from deformsim.blender import cameras as cams
 from deformsim.blender import materials
+from deformsim.blender.pose import set_pose
 from deformsim.blender.rig import Rig
 from deformsim.blender.world import World
 from deformsim.config import Config
@@ -41,6 +42,7 @@ class RenderContext:
     rig: Rig
     world: World
     cameras: list
+    pivot: object  # tilts object and lattice together (see blender.pose)
     target: tuple[float, float, float]  # bounding-box centre the cameras aim at
     camera_scale: float = 1.0
 
@@ -78,6 +80,7 @@ def _render_to_array(scene, target: Path) -> tuple[np.ndarray, float]:
 def apply_state(ctx: RenderContext, p: SampleParams) -> None:
     """Put the scene in sample ``p``'s state (deformation, openings, surface, lighting)."""
     ctx.rig.set(p.keys, p.displacement, p.seal, p.tab)
+    set_pose(ctx.pivot, p.pose_tilt, p.pose_axis)
     if p.design is not None:
         materials.set_label(ctx.obj, p.design)
     if p.material is not None:

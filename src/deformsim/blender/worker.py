@@ -38,6 +38,7 @@ def setup(msg: dict):
 
     from deformsim.blender import scene as scn
     from deformsim.blender.cameras import make_cameras
+    from deformsim.blender.pose import make_pivot
     from deformsim.blender.render import RenderContext
     from deformsim.blender.rig import build_rig, mesh_bounds
     from deformsim.blender.world import World
@@ -62,6 +63,7 @@ def setup(msg: dict):
     size = hi - lo
     camera_scale = 1.0 if cfg.object.mesh is None else float(size.max() / REFERENCE_SIZE)
     rig = build_rig(obj, spec)
+    pivot = make_pivot(scene, (lo + hi) / 2, [obj, rig.lattice])
     world = World(scene, cfg.lighting.hdri_dir)
     cameras = make_cameras(scene, len(cfg.camera.azimuth_quadrants), cfg.camera.lens_mm, camera_scale)
     device = scn.configure_cycles(scene, cfg.render, int(msg.get("threads") or cfg.render.threads))
@@ -75,6 +77,7 @@ def setup(msg: dict):
         cameras=cameras,
         target=tuple(float(v) for v in (lo + hi) / 2),
         camera_scale=camera_scale,
+        pivot=pivot,
     )
     reply = {
         "ready": True,
