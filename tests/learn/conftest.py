@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pandas as pd
 import pytest
-from blobs import make_blobs
+from tests.learn.blobs import make_blobs
 
 
 @pytest.fixture(scope="session", autouse=True)
