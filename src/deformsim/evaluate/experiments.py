@@ -22,6 +22,7 @@ from deformsim.config import TrainConfig
 from deformsim.dataset import list_variants, variant_table
 from deformsim.errors import UserError
 from deformsim.evaluate.metrics import compute_metrics
+from deformsim.learn.data import split
 from deformsim.log import get_logger
 
 log = get_logger(__name__)
@@ -32,24 +33,20 @@ EXAMPLES_PER_CLASS = 3
 def grouped_split(table: pd.DataFrame, train_fraction: float, seed: int) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Split ``table`` into (train, test) by whole samples, keeping each label's share of samples.
 
-    Each label contributes ``round((1 - train_fraction) * its samples)`` samples to the test part, at least
-    one and never all. Raises :class:`UserError` when a label has fewer than two samples or a sample's views
+    Uses :func:`deformsim.learn.data.split` (each label keeps its share, at least one sample on each side).
+    Raises :class:`UserError` when a label has fewer than two samples or a sample's views
     disagree on the label.
     """
     labels = table.groupby("sample")["y"].agg(["min", "max"])
     mixed = labels.index[labels["min"] != labels["max"]]
     if len(mixed):
         raise UserError(f"sample {mixed[0]} has views with different labels")
-    rng = np.random.default_rng(seed)
-    test: list = []
     for y in (0, 1):
-        ids = np.sort(labels.index[labels["min"] == y].to_numpy())
-        if len(ids) < 2:
-            raise UserError(f"a split needs at least 2 samples of each class, got {len(ids)} with y={y}")
-        n_test = min(max(1, round(len(ids) * (1 - train_fraction))), len(ids) - 1)
-        test.extend(rng.permutation(ids)[:n_test].tolist())
-    in_test = table["sample"].isin(test)
-    return table[~in_test].reset_index(drop=True), table[in_test].reset_index(drop=True)
+        n = int((labels["min"] == y).sum())
+        if n < 2:
+            raise UserError(f"a split needs at least 2 samples of each class, got {n} with y={y}")
+    train, test = split(table, train_fraction, seed)
+    return table.iloc[train].reset_index(drop=True), table.iloc[test].reset_index(drop=True)
 
 
 def _counts(df: pd.DataFrame) -> dict:

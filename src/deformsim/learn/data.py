@@ -81,9 +81,9 @@ def split(table: pd.DataFrame, fraction: float, seed: int) -> tuple[np.ndarray, 
     y = table["y"].to_numpy()
     train = []
     for cls in (0, 1):
-        g = np.unique(groups[y == cls])
-        rng.shuffle(g)
-        n = min(len(g), max(1, round(fraction * len(g))))
+        g = rng.permutation(np.unique(groups[y == cls]))
+        # at least one group of a class in each part whenever the class has two or more
+        n = len(g) if len(g) < 2 else min(len(g) - 1, max(1, round(fraction * len(g))))
         train.append(g[:n])
     is_train = np.isin(groups, np.concatenate(train))
     return np.flatnonzero(is_train), np.flatnonzero(~is_train)
