@@ -101,6 +101,7 @@ class DeformConfig(_Model):
     """How deformed samples mix the spec's keys (paper, section III-B)."""
 
     families: tuple[int, int] = (3, 5)
+    use_families: list[str] | None = Field(None, description="simulate only these families of the spec")
     extent: Range = (0.7, 1.5)
     displacement: Range = (0.6, 1.0)
 

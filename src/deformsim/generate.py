@@ -26,7 +26,7 @@ from deformsim.errors import UserError
 from deformsim.layout import RENDER_KINDS, Layout
 from deformsim.log import get_logger, progress_bar
 from deformsim.manifest import consolidate, read_record, rows_for, write_record
-from deformsim.sampling import SampleParams, sample_params
+from deformsim.sampling import SampleParams, allowed_families, sample_params
 from deformsim.spec import Spec, check_mesh_file, load_spec
 
 log = get_logger(__name__)
@@ -70,15 +70,17 @@ def default_workers(cfg: Config) -> int:
 
 def prepare(cfg: Config, out: Path) -> tuple[Spec, list[str]]:
     """Every check that can fail on user input, before any work and before touching ``out``."""
-    from deformsim.worker_client import list_hdris
+    from deformsim.worker_client import list_hdris, probe_mesh
 
     spec = load_spec(cfg.object.spec)
     if cfg.object.mesh is not None:
         check_mesh_file(cfg.object.mesh)
         if spec.builtin:
             raise UserError(f"spec '{spec.name}' is for the built-in {spec.builtin}, not for mesh {cfg.object.mesh}")
+        probe_mesh(cfg.object.mesh, cfg.object.spec)
     elif not spec.builtin:
         raise UserError(f"spec '{spec.name}' describes a mesh part: pass the mesh with --object")
+    allowed_families(cfg, spec)
     hdris = list_hdris(cfg.lighting.hdri_dir)
     out = Path(out)
     if out.exists() and not out.is_dir():

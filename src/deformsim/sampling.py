@@ -12,6 +12,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from deformsim.config import Config
+from deformsim.errors import UserError
 from deformsim.spec import Spec
 
 
@@ -91,6 +92,19 @@ def label_for(index: int, intact_fraction: float) -> str:
     return "intact" if intact else "deformed"
 
 
+def allowed_families(cfg: Config, spec: Spec) -> list[int]:
+    """Indices of the spec's families a run may use (``deform.use_families``; default: all)."""
+    names = [f.name for f in spec.families]
+    if cfg.deform.use_families is None:
+        return list(range(len(names)))
+    unknown = [f for f in cfg.deform.use_families if f not in names]
+    if unknown:
+        raise UserError(f"deform.use_families: unknown family '{unknown[0]}' (spec '{spec.name}' has: {', '.join(names)})")
+    if not cfg.deform.use_families:
+        raise UserError("deform.use_families is empty: name at least one family or leave it out")
+    return [names.index(f) for f in cfg.deform.use_families]
+
+
 def rng_for(seed: int, index: int) -> np.random.Generator:
     return np.random.default_rng([seed, index])
 
@@ -108,10 +122,11 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
 
     # Always draw the deformation so that every later draw uses the same stream position for both labels.
     d = cfg.deform
+    allowed = allowed_families(cfg, spec)
     lo, hi = d.families
-    hi = min(hi, len(spec.families))
+    hi = min(hi, len(allowed))
     k = int(rng.integers(min(lo, hi), hi + 1))
-    chosen = sorted(rng.choice(len(spec.families), size=k, replace=False).tolist())
+    chosen = sorted(rng.choice(allowed, size=k, replace=False).tolist())
     fam_w = rng.uniform(0.05, 1.0, size=k)
     draw_extent = float(rng.uniform(*d.extent))
     fam_w = fam_w / fam_w.sum() * draw_extent

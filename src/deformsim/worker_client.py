@@ -62,6 +62,26 @@ def list_hdris(hdri_dir: Path | str | None) -> list[str]:
     return names
 
 
+def probe_mesh(mesh: Path, spec_path: Path | None, timeout: float = 300) -> dict:
+    """Import ``mesh`` in a throwaway Blender process; its size, or a UserError naming the problem."""
+    args = [sys.executable, "-m", "deformsim.blender.mesh_import", str(mesh)] + ([str(spec_path)] if spec_path else [])
+    proc = subprocess.run(args, capture_output=True, text=True, env=_worker_env(), timeout=timeout)
+    if proc.returncode == 2:
+        raise UserError(proc.stderr.strip().splitlines()[-1])
+    if proc.returncode != 0:
+        raise RuntimeError(f"mesh probe failed ({proc.returncode}): {' '.join(proc.stderr.split()[-60:])}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def _worker_env(threads: int = 0) -> dict:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(SRC_DIR), env.get("PYTHONPATH")]))
+    if threads:
+        for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+            env[var] = str(threads)
+    return env
+
+
 class WorkerProcess:
     """One render worker. ``start`` builds its scene; ``render`` renders one sample; ``close`` quits it."""
 
@@ -78,11 +98,7 @@ class WorkerProcess:
 
     def start(self, setup: dict, timeout: float | None = 300) -> dict:
         """Spawn the worker and send ``setup``; return its ready reply (device, camera_scale, ...)."""
-        env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(SRC_DIR), env.get("PYTHONPATH")]))
-        if self.threads:
-            for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-                env[var] = str(self.threads)
+        env = _worker_env(self.threads)
         self.log_path.parent.mkdir(parents=True, exist_ok=True)
         with open(self.log_path, "ab") as log:
             self.proc = subprocess.Popen(

@@ -114,3 +114,24 @@ def object_size(obj: bpy.types.Object) -> tuple[float, float, float]:
     world = co @ m[:3, :3].T + m[:3, 3]
     size = world.max(0) - world.min(0)
     return float(size[0]), float(size[1]), float(size[2])
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m deformsim.blender.mesh_import MESH [SPEC]``: import only; print the size or the problem."""
+    import json
+    import sys
+
+    from deformsim.spec import load_spec
+
+    args = sys.argv[1:] if argv is None else argv
+    try:
+        obj = import_mesh(Path(args[0]), load_spec(args[1] if len(args) > 1 else None))
+    except UserError as exc:
+        print(exc, file=sys.stderr)
+        return 2
+    print(json.dumps({"size": object_size(obj), "vertices": len(obj.data.vertices)}))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -22,13 +22,17 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Validate a spec (and its mesh) without rendering anything."""
         from deformsim.spec import check_mesh_file, load_spec
+        from deformsim.worker_client import probe_mesh
 
         spec = load_spec(file)
+        mesh = ""
         if object_ is not None:
             check_mesh_file(object_)
+            size = probe_mesh(object_, file)["size"]
+            mesh = f"; mesh {object_.name}: {' x '.join(f'{v * 1000:.0f}' for v in size)} mm"
         console.print(
             f"[green]ok[/] {file}: '{spec.name}', {len(spec.families)} families, {len(spec.key_names)} keys, "
-            f"{len(spec.texture_names)} displacement textures, lattice {'x'.join(map(str, spec.lattice.points))}"
+            f"{len(spec.texture_names)} displacement textures, lattice {'x'.join(map(str, spec.lattice.points))}{mesh}"
         )
 
     @spec_app.command("preview")

@@ -1,8 +1,10 @@
-"""Cache of the frozen stem's outputs: the frozen layers run once per image set instead of once per epoch.
+"""Per-image cache of the frozen stem's outputs: each image goes through the frozen layers once.
 
-A cache file holds the fp16 activations entering the first trainable layer for a list of images. Its key
-hashes the frozen weights themselves, the backbone, the image size and each image's identity (resolved
-path, size, modification time), so a changed image or different weights make a new file.
+Every model built from the same backbone weights shares its frozen stem, so the cache is keyed per image:
+``cache_dir()/features/<backbone>-<size>-<stem hash>/<image hash>.pt`` holds one image's fp16 activations
+entering the first trainable layer. The stem hash covers the frozen weights themselves; the image hash its
+resolved path, size and modification time, so a rewritten image or other weights make new files. Training,
+prediction and PCA features of every run read the same files.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
+from weakref import WeakKeyDictionary
 
 import torch
 from tqdm import tqdm
@@ -19,20 +22,33 @@ from deformsim.learn.data import ImageSet
 from deformsim.learn.models import DeformNet
 from deformsim.learn.weights import cache_dir
 
+_STEM_HASHES: WeakKeyDictionary = WeakKeyDictionary()  # model -> (weight versions, hash)
+
+
+def stem_hash(model: DeformNet) -> str:
+    """sha256 of the backbone name, the cut and the frozen weights; recomputed only when those tensors change."""
+    state = model.features[: model.cut].state_dict()
+    versions = tuple((t.data_ptr(), t._version) for t in state.values())
+    memo = _STEM_HASHES.get(model)
+    if memo is not None and memo[0] == versions:
+        return memo[1]
+    h = hashlib.sha256(f"{model.backbone}|cut={model.cut}".encode())
+    for name, t in state.items():
+        h.update(name.encode())
+        h.update(t.detach().cpu().contiguous().numpy().tobytes())
+    _STEM_HASHES[model] = (versions, h.hexdigest())
+    return h.hexdigest()
+
 
 def _image_identity(path: str) -> str:
     st = os.stat(path)
     return f"{Path(path).resolve()}|{st.st_size}|{st.st_mtime_ns}"
 
 
-def cache_key(model: DeformNet, paths: list[str], size: int) -> str:
-    h = hashlib.sha256(f"{model.backbone}|cut={model.cut}|size={size}".encode())
-    for name, t in model.features[: model.cut].state_dict().items():
-        h.update(name.encode())
-        h.update(t.detach().cpu().contiguous().numpy().tobytes())
-    for p in paths:
-        h.update(_image_identity(p).encode())
-    return h.hexdigest()
+def cache_key(model: DeformNet, paths: list[str], size: int) -> list[str]:
+    """Cache file names (relative to ``cache_dir()/features``) of the stem activations of ``paths`` at ``size``."""
+    folder = f"{model.backbone}-{size}-{stem_hash(model)[:24]}"
+    return [f"{folder}/{hashlib.sha256(_image_identity(str(p)).encode()).hexdigest()[:32]}.pt" for p in paths]
 
 
 def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, progress: bool = False) -> torch.Tensor:
@@ -49,16 +65,27 @@ def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, pro
     return torch.cat(out)
 
 
-def cached_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, progress: bool = False) -> tuple[torch.Tensor, bool]:
-    """Stem activations (fp16) from the cache or computed and stored; the flag says whether it was a hit."""
-    key = cache_key(model, paths, size)
-    path = cache_dir() / "features" / f"{model.backbone}-{size}-{key[:24]}.pt"
-    if path.is_file():
-        try:
-            return torch.load(path, map_location="cpu", weights_only=True), True
-        except (RuntimeError, OSError, EOFError):
-            pass  # an unreadable cache is recomputed
-    feats = run_stem(model, paths, size, batch_size, progress).half()
-    with atomic_path(path) as tmp:
-        torch.save(feats, tmp)
-    return feats, False
+def _load(path: Path) -> torch.Tensor | None:
+    try:
+        return torch.load(path, map_location="cpu", weights_only=True)
+    except (FileNotFoundError, RuntimeError, OSError, EOFError):
+        return None  # missing or unreadable: recomputed
+
+
+def cached_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, progress: bool = False) -> torch.Tensor:
+    """Stem activations (fp16, N x C x H x W) of ``paths``: cached images are read, only the others computed and stored."""
+    if not paths:
+        raise ValueError("cached_stem needs at least one image")
+    root = cache_dir() / "features"
+    files = [root / k for k in cache_key(model, paths, size)]
+    found = {f: _load(f) for f in dict.fromkeys(files)}
+    missing = [f for f, t in found.items() if t is None]
+    if missing:
+        path_of = dict(zip(files, map(str, paths)))
+        feats = run_stem(model, [path_of[f] for f in missing], size, batch_size, progress).half()
+        for f, t in zip(missing, feats):
+            t = t.clone()  # a view would save the whole batch's storage
+            with atomic_path(f) as tmp:
+                torch.save(t, tmp)
+            found[f] = t
+    return torch.stack([found[f] for f in files])

@@ -10,10 +10,12 @@ import torch
 from deformsim.config import TrainConfig
 from deformsim.errors import UserError
 from deformsim.learn.data import ImageSet
+from deformsim.learn.features import cached_stem
 from deformsim.learn.models import DeformNet, build
 from deformsim.learn.train import MODEL_FILE, pick_device, set_threads
 
 LAYERS = ("penultimate", "pooled")
+CHUNK = 512  # images whose cached stem activations are held in memory at once
 
 
 def read_checkpoint(model_path: str | Path) -> tuple[dict, Path]:
@@ -52,15 +54,21 @@ class Predictor:
         self.history: list[dict] = ckpt.get("history", [])
         self.split: dict = ckpt.get("split", {})
 
-    def _batches(self, paths):
-        loader = torch.utils.data.DataLoader(ImageSet(list(paths), self.cfg.image_size), batch_size=self.cfg.batch_size)
-        with torch.inference_mode():
-            for x in loader:
-                yield x.to(self.device)
+    def _stems(self, paths):
+        """Batches of stem activations (float32 on the device): cached per image unless ``cache_features`` is off."""
+        paths, bs = [str(p) for p in paths], self.cfg.batch_size
+        if not self.cfg.cache_features:
+            for x in torch.utils.data.DataLoader(ImageSet(paths, self.cfg.image_size), batch_size=bs):
+                yield self.model.stem(x.to(self.device))
+            return
+        for i in range(0, len(paths), CHUNK):  # bounded memory on large folders
+            for z in cached_stem(self.model, paths[i : i + CHUNK], self.cfg.image_size, bs).split(bs):
+                yield z.to(self.device).float()
 
+    @torch.inference_mode()
     def predict_proba(self, paths: list[str | Path]) -> np.ndarray:
         """P(deformed) per image, float64 (N,)."""
-        out = [self.model.proba(x).cpu() for x in self._batches(paths)]
+        out = [torch.sigmoid(self.model.tail(z)).cpu() for z in self._stems(paths)]
         return torch.cat(out).double().numpy() if out else np.zeros(0)
 
     def predict(self, paths: list[str | Path]) -> tuple[np.ndarray, list[str]]:
@@ -68,11 +76,12 @@ class Predictor:
         p = self.predict_proba(paths)
         return p, [self.classes[int(v >= self.cfg.threshold)] for v in p]
 
+    @torch.inference_mode()
     def features(self, paths: list[str | Path], layer: str = "penultimate") -> np.ndarray:
         """Per-image embeddings (N, D): the last hidden layer (``penultimate``) or pooled backbone features."""
         if layer not in LAYERS:
             raise UserError(f"unknown feature layer '{layer}' (choose from {', '.join(LAYERS)})")
-        out = [self.model.embed(self.model.stem(x), layer).cpu() for x in self._batches(paths)]
+        out = [self.model.embed(z, layer).cpu() for z in self._stems(paths)]
         return torch.cat(out).numpy() if out else np.zeros((0, 0), np.float32)
 
 

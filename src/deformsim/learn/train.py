@@ -1,7 +1,7 @@
 """Training: Adam on the trainable tail and head, BCE-with-logits, an 80/20 split grouped by rendered object.
 
-With ``cache_features`` (and no augmentation) the frozen stem runs once over all images and every epoch
-trains on its cached activations; otherwise each batch goes through the whole network.
+With ``cache_features`` (and no augmentation) every epoch trains on the cached stem activations of the
+images (:mod:`deformsim.learn.features`); otherwise each batch goes through the whole network.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ class _Inputs:
         self.plain = ImageSet(paths, cfg.image_size)
         self.augmented = ImageSet(paths, cfg.image_size, augmenter(cfg.image_size)) if cfg.augment else self.plain
         if cfg.cache_features and not cfg.augment:
-            self.feats = cached_stem(model, paths, cfg.image_size, cfg.batch_size, progress)[0].to(device)
+            self.feats = cached_stem(model, paths, cfg.image_size, cfg.batch_size, progress).to(device)
 
     def __call__(self, rows: torch.Tensor, train: bool) -> torch.Tensor:
         if self.feats is not None:

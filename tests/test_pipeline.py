@@ -1,0 +1,129 @@
+"""`deformsim run` end to end, for the built-in can and for a user mesh; spec and mesh validation."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from deformsim.config import load_config
+from deformsim.errors import UserError
+from deformsim.manifest import read_manifest
+from deformsim.pipeline import run
+from tests.util import ROOT
+
+# 2 intact + 2 deformed scene states (a split needs two of each), 1 epoch at 64 px.
+E2E = {"generate.n": 16, "render.resolution": 64, "render.samples": 4, "generate.seed": 5, "train.epochs": 1,
+       "train.image_size": 64, "train.weights": "offline", "composite.variants": ["black", "backgrounds"]}
+CARTON_SPEC = ROOT / "examples" / "carton" / "spec.yaml"
+
+
+def cli(*args: str, **kw) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    return subprocess.run([sys.executable, "-m", "deformsim.cli", *args], cwd=ROOT, env=env, capture_output=True,
+                          text=True, timeout=900, **kw)
+
+
+@pytest.fixture(scope="module")
+def carton(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("mesh") / "carton.stl"
+    subprocess.run([sys.executable, str(ROOT / "examples" / "carton" / "make_carton.py"), str(out)], check=True)
+    return out
+
+
+def real_folder(data: Path, root: Path) -> Path:
+    """A stand-in 'real' folder laid out as intact/ and deformed/ (green renders: another domain)."""
+    df = read_manifest(data)
+    for row in df.itertuples():
+        target = root / row.label / f"{row.id}.png"
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_bytes((data / row.green).read_bytes())
+    return root
+
+
+def test_run_on_the_builtin_can_makes_a_report_and_skips_what_is_done(tmp_path):
+    cfg = load_config("quick", E2E)
+    first = run(cfg, tmp_path / "run", progress=False)
+    real = real_folder(first.data, tmp_path / "real")
+    result = run(cfg, tmp_path / "run", real=real, progress=False)
+    assert result.skipped == ["generate", "composite:procedural"] and "report" in result.seconds
+    metrics = json.loads((tmp_path / "run" / "report" / "metrics.json").read_text())
+    assert set(metrics["variants"]) == {"black", "procedural"}
+    acc = metrics["variants"]["black"]["real"]["metrics"]["accuracy"]
+    assert f"{100 * acc:.1f}%" in result.report.read_text()
+    again = run(cfg, tmp_path / "run", real=real, progress=False)
+    assert again.skipped == ["generate", "composite:procedural", "report"] and not again.seconds
+    changed = run(load_config("quick", {**E2E, "train.epochs": 2}), tmp_path / "run", real=real, progress=False)
+    assert changed.skipped == ["generate", "composite:procedural"]
+
+
+def test_run_on_a_user_mesh(tmp_path, carton):
+    cfg = load_config("quick", {**E2E, "object.mesh": carton, "object.spec": CARTON_SPEC})
+    result = run(cfg, tmp_path / "run", progress=False)
+    assert result.report.is_file()
+    df = read_manifest(result.data)
+    assert len(df) == 16 and "key_squashed_top" in df.columns
+    assert np.allclose(df.camera_scale, 0.215 / 0.122, rtol=0.01)  # cameras back off with the part's size
+    cover = [np.asarray(Image.open(result.data / p))[..., 3].mean() / 255 for p in df.rgba]
+    assert 0.02 < min(cover) and max(cover) < 0.8  # the part is in frame, and not cropped to fill it
+
+
+@pytest.mark.parametrize("change, needle", [
+    (("op: dent", "op: poke"), "unknown operation 'poke'"),
+    (("ops: [{op: twist, angle: 35}]", "ops: []"), "keys 'twisted'.ops: key has no operations"),
+    (("roughness: [0.3, 0.6]", "roughness: [0.6, 0.3]"), "roughness range [0.6, 0.3] is empty"),
+    (("roughness: [0.3, 0.6]", "roughness: [-0.2, 0.6]"), "roughness range [-0.2, 0.6] is negative"),
+])
+def test_bad_specs_fail_before_rendering(tmp_path, carton, change, needle):
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(CARTON_SPEC.read_text().replace(*change))
+    for args in (["spec", "check", str(spec)],
+                 ["run", "--object", str(carton), "--spec", str(spec), "--out", str(tmp_path / "out")]):
+        proc = cli(*args)
+        assert proc.returncode == 2 and needle in " ".join(proc.stderr.split()), proc.stderr
+        assert len(proc.stderr.strip().splitlines()) <= 2 and "Traceback" not in proc.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_unknown_family_is_named(carton, tmp_path):
+    cfg = load_config("quick", {**E2E, "object.mesh": carton, "object.spec": CARTON_SPEC,
+                                "deform.use_families": ["crush", "crumple"]})
+    with pytest.raises(UserError, match="unknown family 'crumple'"):
+        run(cfg, tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name, content, needle", [
+    ("missing.stl", None, "mesh file not found"),
+    ("empty.stl", b"", "is empty"),
+    ("noise.stl", bytes(range(256)) * 3, "no faces"),
+    ("points.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\n", "no faces"),
+    ("part.step", b"ISO-10303-21;", "unsupported format"),
+])
+def test_bad_meshes_fail_before_rendering(tmp_path, name, content, needle):
+    mesh = tmp_path / name
+    if content is not None:
+        mesh.write_bytes(content)
+    proc = cli("run", "--object", str(mesh), "--spec", str(CARTON_SPEC), "--out", str(tmp_path / "out"))
+    assert proc.returncode == 2 and needle in proc.stderr and name in proc.stderr, proc.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_spec_preview_shows_each_key(tmp_path, carton):
+    out = tmp_path / "keys.png"
+    proc = cli("spec", "preview", str(CARTON_SPEC), "--object", str(carton), "--out", str(out),
+               "--resolution", "64", "--samples", "2")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    sheet = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    tile = 64 + max(14, 64 // 8)
+    tiles = [sheet[r * tile:r * tile + 64, c * 64:(c + 1) * 64] for r in range(2) for c in range(5)]
+    rest, keys = tiles[0], tiles[1:1 + 6 + 2]  # 6 lattice keys, 2 crinkle textures
+    assert rest.mean() > 5  # the part is visible
+    for k, tile_img in enumerate(keys):
+        assert np.abs(tile_img - rest).mean() > 0.3, f"key tile {k} looks like the rest shape"
