@@ -15,7 +15,7 @@ from deformsim.layout import Layout, image_id
 from deformsim.preview import grid
 from deformsim.sampling import SampleParams, sample_params
 
-FIXED_VIEW = {"camera.azimuth_quadrants": [[40, 40]], "camera.polar": [62, 62], "camera.radius": [0.36, 0.36],
+FIXED_VIEW = {"camera.azimuth_quadrants": [[40, 40]], "pose.tilt": [0, 0], "camera.polar": [62, 62], "camera.radius": [0.36, 0.36],
               "lighting.rotation": [90, 90], "lighting.strength": [1.0, 1.0]}
 
 
