@@ -92,10 +92,12 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True)
     composited = [v for v in variants if v not in ("black", "green")]
     comp_stamps = {}
     for name in composited:
-        comp_stamp = digest([gen_stamp, cfg.composite.model_dump(mode="json"), name])
+        # "procedural" always uses the built-in backgrounds; any other name the photo folder, when given
+        comp_cfg = cfg.composite.model_copy(update={"backgrounds": None}) if name == "procedural" else cfg.composite
+        comp_stamp = digest([gen_stamp, comp_cfg.model_dump(mode="json"), name])
         comp_stamps[name] = comp_stamp
         stage(f"composite:{name}", comp_stamp, data / "variants" / name / "manifest.parquet",
-              lambda name=name: composite(data, cfg.composite, name, cfg.generate.seed, progress=progress))
+              lambda name=name, c=comp_cfg: composite(data, c, name, cfg.generate.seed, progress=progress))
 
     train_cfg = cfg.train.model_copy(update={"variants": variants})
     report_stamp = digest([gen_stamp, comp_stamps, train_cfg.model_dump(mode="json"),
