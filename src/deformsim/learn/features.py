@@ -1,8 +1,8 @@
 """Per-image cache of the frozen stem's outputs: each image goes through the frozen layers once.
 
 Every model built from the same backbone weights shares its frozen stem, so the cache is keyed per image:
-``cache_dir()/features/<backbone>-<size>-<stem hash>/<image hash>.pt`` holds one image's fp16 activations
-entering the first trainable layer. The stem hash covers the frozen weights themselves; the image hash its
+``cache_dir()/features/<backbone>-<size>-<stem hash>/<image hash>.pt`` holds one image's activations entering the
+first trainable layer, in float32 so cached predictions equal uncached ones (and the ONNX export) to 1e-5. The stem hash covers the frozen weights themselves; the image hash its
 resolved path, size and modification time, so a rewritten image or other weights make new files. Training,
 prediction and PCA features of every run read the same files.
 """
@@ -68,12 +68,14 @@ def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, pro
 def _load(path: Path) -> torch.Tensor | None:
     try:
         return torch.load(path, map_location="cpu", weights_only=True)
-    except (FileNotFoundError, RuntimeError, OSError, EOFError):
-        return None  # missing or unreadable: recomputed
+    except FileNotFoundError:
+        return None
+    except Exception:  # torch raises several types for truncated or foreign files; recomputed
+        return None
 
 
 def cached_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, progress: bool = False) -> torch.Tensor:
-    """Stem activations (fp16, N x C x H x W) of ``paths``: cached images are read, only the others computed and stored."""
+    """Stem activations (float32, N x C x H x W) of ``paths``: cached images are read, only the others computed and stored."""
     if not paths:
         raise ValueError("cached_stem needs at least one image")
     root = cache_dir() / "features"
@@ -82,7 +84,7 @@ def cached_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, 
     missing = [f for f, t in found.items() if t is None]
     if missing:
         path_of = dict(zip(files, map(str, paths)))
-        feats = run_stem(model, [path_of[f] for f in missing], size, batch_size, progress).half()
+        feats = run_stem(model, [path_of[f] for f in missing], size, batch_size, progress)
         for f, t in zip(missing, feats):
             t = t.clone()  # a view would save the whole batch's storage
             with atomic_path(f) as tmp:

@@ -63,7 +63,7 @@ class Predictor:
             return
         for i in range(0, len(paths), CHUNK):  # bounded memory on large folders
             for z in cached_stem(self.model, paths[i : i + CHUNK], self.cfg.image_size, bs).split(bs):
-                yield z.to(self.device).float()
+                yield z.to(self.device)
 
     @torch.inference_mode()
     def predict_proba(self, paths: list[str | Path]) -> np.ndarray:

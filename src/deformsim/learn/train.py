@@ -58,7 +58,7 @@ class _Inputs:
 
     def __call__(self, rows: torch.Tensor, train: bool) -> torch.Tensor:
         if self.feats is not None:
-            return self.feats[rows].float()
+            return self.feats[rows]
         images = self.augmented if train else self.plain
         with torch.no_grad():
             return self.model.stem(torch.stack([images[int(i)] for i in rows]).to(self.device))
