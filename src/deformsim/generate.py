@@ -239,7 +239,8 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
                     reply = proc.render(params[i].to_dict())
                 except WorkerCrashed as exc:
                     proc = None
-                    retry_or_fail(i, f"worker crashed ({exc})")
+                    if not stop.is_set():  # else we killed it ourselves (Ctrl-C)
+                        retry_or_fail(i, f"worker crashed ({exc})")
                     continue
                 if "error" in reply:
                     retry_or_fail(i, reply.get("message", "render error"))
@@ -274,6 +275,7 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
         for t in threads_:
             t.join(timeout=10)
         bar.close()
+        _remove_partial_files(layout)
         raise
     bar.close()
     if errors:
