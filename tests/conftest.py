@@ -20,17 +20,19 @@ def tiny_dataset(tmp_path_factory) -> Path:
     return out
 
 
+def _shared(name: str) -> Path:
+    """A folder of the development data beside the checkout; the test is skipped without it."""
+    path = SHARED / name
+    if not path.is_dir():
+        pytest.skip(f"shared data not found at {path}")
+    return path
+
+
 @pytest.fixture(scope="session")
 def backgrounds_dir() -> Path:
-    path = SHARED / "backgrounds"
-    if not path.is_dir():
-        pytest.skip(f"shared backgrounds not found at {path}")
-    return path
+    return _shared("backgrounds")
 
 
 @pytest.fixture(scope="session")
 def real_cans_dir() -> Path:
-    path = SHARED / "real_cans_dev"
-    if not path.is_dir():
-        pytest.skip(f"shared real photos not found at {path}")
-    return path
+    return _shared("real_cans_dev")
