@@ -122,11 +122,15 @@ def versions() -> dict:
     return out
 
 
-def generate(cfg: Config, out: str | Path, progress: bool = True) -> GenerateResult:
-    """Render ``cfg.generate.n`` images into ``out`` (resuming what is there) and write the manifest."""
+def generate(cfg: Config, out: str | Path, progress: bool = True,
+             prepared: tuple[Spec, list[str]] | None = None) -> GenerateResult:
+    """Render ``cfg.generate.n`` images into ``out`` (resuming what is there) and write the manifest.
+
+    ``prepared`` is what :func:`prepare` returned for the same ``cfg`` and ``out``, when the caller already ran it.
+    """
     t0 = time.perf_counter()
     out = Path(out)
-    spec, hdris = prepare(cfg, out)
+    spec, hdris = prepared or prepare(cfg, out)
     layout = Layout(out)
     layout.samples_dir.mkdir(parents=True, exist_ok=True)
     write_text(layout.config, dump_config(cfg))

@@ -2,7 +2,6 @@
 
     OUT/
       config.yaml, versions.json      resolved config and package versions of the run
-      object.json                     what the workers measured of the object (size, camera scale)
       samples/000012.json             one record per finished sample (its manifest rows): the resume state
       images/{rgba,black,green}/ID.png  exact-alpha render and its black / green camera-background variants
       manifest.parquet, manifest.csv  one row per image, consolidated from the sample records
@@ -57,10 +56,6 @@ class Layout:
     @property
     def versions(self) -> Path:
         return self.root / "versions.json"
-
-    @property
-    def object_info(self) -> Path:
-        return self.root / "object.json"
 
     @property
     def preview(self) -> Path:

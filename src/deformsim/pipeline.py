@@ -66,7 +66,7 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True)
 
     out = Path(out)
     data = out / f"data-{digest(data_settings(cfg))}"
-    prepare(cfg, data)  # every input check before any work
+    prepared = prepare(cfg, data)  # every input check before any work
     if real is not None:
         real_table(real)
     if cfg.composite.backgrounds is not None and not Path(cfg.composite.backgrounds).is_dir():
@@ -86,7 +86,7 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True)
         stages.done(name, stamp)
 
     gen_stamp = digest([data_settings(cfg), cfg.generate.n])
-    stage("generate", gen_stamp, data / "manifest.parquet", lambda: generate(cfg, data, progress=progress))
+    stage("generate", gen_stamp, data / "manifest.parquet", lambda: generate(cfg, data, progress=progress, prepared=prepared))
 
     variants = [v if v != "backgrounds" or cfg.composite.backgrounds else "procedural" for v in cfg.composite.variants]
     composited = [v for v in variants if v not in ("black", "green")]

@@ -43,8 +43,9 @@ class Rig:
         """Set every lattice key, crinkle key and opening key; unknown names raise ValueError."""
         lat_keys = self.lattice.data.shape_keys.key_blocks
         mesh_keys = self.obj.data.shape_keys.key_blocks if self.obj.data.shape_keys else {}
-        for values, blocks, kind in ((keys, lat_keys, "lattice key"), (displacement, mesh_keys, "crinkle key")):
-            unknown = set(values) - set(self.spec.key_names if kind == "lattice key" else self.spec.texture_names)
+        for values, names, kind in ((keys, self.spec.key_names, "lattice key"),
+                                    (displacement, self.spec.texture_names, "crinkle key")):
+            unknown = set(values) - set(names)
             if unknown:
                 raise ValueError(f"unknown {kind}(s): {', '.join(sorted(unknown))}")
         for name in self.spec.key_names:
