@@ -9,7 +9,7 @@ SHARED := ../shared/data
 DEMO_ARGS := $(if $(wildcard $(SHARED)/backgrounds),--backgrounds $(SHARED)/backgrounds) \
 	$(if $(wildcard $(SHARED)/real_cans_dev),--real $(SHARED)/real_cans_dev)
 
-.PHONY: setup demo test bench clean
+.PHONY: setup demo test test-fast bench clean
 
 setup: $(STAMP)
 
@@ -24,7 +24,12 @@ demo: setup
 	$(VENV)/bin/deformsim run $(DEMO_ARGS)
 
 test: setup
+	$(VENV)/bin/ruff check src tests bench examples
 	$(PY) -m pytest -q
+
+# the tests that render nothing (under a minute)
+test-fast: setup
+	$(PY) -m pytest -q -m "not blender"
 
 bench: setup
 	for b in bench/*.py; do $(PY) $$b || exit 1; done

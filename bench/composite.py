@@ -16,14 +16,14 @@ import tempfile
 import time
 from pathlib import Path
 
-from _util import SHARED
-
 import cv2
 import numpy as np
 import pandas as pd
+from _util import SHARED
 
-from deformsim.composite import binary_iou, chroma_matte, composite
 from deformsim.composite.backgrounds import load_photo
+from deformsim.composite.matte import binary_iou, chroma_matte
+from deformsim.composite.stage import composite
 from deformsim.config import CompositeConfig, load_config
 
 
@@ -62,7 +62,7 @@ def main() -> None:
     tmp = tempfile.TemporaryDirectory()
     root = args.dataset
     if root is None:
-        from deformsim.generate import generate
+        from deformsim.generate.stage import generate
 
         root = Path(tmp.name) / "data"
         print("rendering 32 images at 128 px ...", flush=True)

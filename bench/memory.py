@@ -13,10 +13,11 @@ from pathlib import Path
 from _util import rss_mb
 
 from deformsim.config import load_config
-from deformsim.generate import prepare, worker_setup
-from deformsim.layout import Layout
+from deformsim.dataset.layout import Layout
+from deformsim.generate.backend import worker_setup
+from deformsim.generate.stage import prepare
+from deformsim.generate.worker_client import WorkerProcess
 from deformsim.sampling import sample_params
-from deformsim.worker_client import WorkerProcess
 
 IMAGES = 320
 RECYCLE = 100

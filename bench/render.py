@@ -17,9 +17,10 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from deformsim.config import load_config  # noqa: E402
+from deformsim.generate.worker_client import WorkerProcess  # noqa: E402
+from deformsim.hdri import list_hdris  # noqa: E402
 from deformsim.sampling import sample_params  # noqa: E402
-from deformsim.spec import load_spec  # noqa: E402
-from deformsim.worker_client import WorkerProcess, list_hdris  # noqa: E402
+from deformsim.spec.model import load_spec  # noqa: E402
 
 
 def bench(resolution: int, samples: int, states: int, threads: int, out: Path) -> dict:

@@ -8,7 +8,7 @@ import time
 from _util import ROOT  # noqa: F401  (puts src on the path)
 
 from deformsim.config import load_config
-from deformsim.generate import generate
+from deformsim.generate.stage import generate
 
 N, RES, SAMPLES = 32, 96, 8
 

@@ -35,7 +35,7 @@ def main() -> None:
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["DEFORMSIM_CACHE"] = str(Path(tmp) / "cache")  # start with an empty feature cache
-        from deformsim.commands.learn import load_table
+        from deformsim.dataset.tables import load_table
         from deformsim.learn.train import fit
 
         if args.data:
@@ -48,7 +48,8 @@ def main() -> None:
                           device=args.device)
         import torch
 
-        where = torch.cuda.get_device_name() if cfg.device != "cpu" and torch.cuda.is_available() else f"{os.cpu_count()} CPU cores"
+        gpu = cfg.device != "cpu" and torch.cuda.is_available()
+        where = torch.cuda.get_device_name() if gpu else f"{os.cpu_count()} CPU cores"
         print(f"{len(table)} images at {args.size} px, {cfg.backbone} ({cfg.weights} weights), batch {cfg.batch_size}, "
               f"{args.epochs} epochs, {where}")
         fit(table.groupby("y").head(2), cfg.model_copy(update={"epochs": 1, "cache_features": False}), Path(tmp) / "warm",

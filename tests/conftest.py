@@ -2,18 +2,20 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
-from tests.util import SHARED, TINY
+from tests.util import ROOT, SHARED, TINY
 
 
 @pytest.fixture(scope="session")
 def tiny_dataset(tmp_path_factory) -> Path:
     """A dataset rendered by ``deformsim generate``: 8 images (4 intact, 4 deformed), 64 px."""
     from deformsim.config import load_config
-    from deformsim.generate import generate
+    from deformsim.generate.stage import generate
 
     out = tmp_path_factory.mktemp("tiny") / "data"
     generate(load_config("quick", TINY), out, progress=False)
@@ -36,3 +38,17 @@ def backgrounds_dir() -> Path:
 @pytest.fixture(scope="session")
 def real_cans_dir() -> Path:
     return _shared("real_cans_dev")
+
+
+@pytest.fixture(scope="module")
+def carton(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("mesh") / "carton.stl"
+    subprocess.run([sys.executable, str(ROOT / "examples" / "carton" / "make_carton.py"), str(out)], check=True)
+    return out
+
+
+def pytest_collection_modifyitems(items) -> None:
+    """A test that uses the rendered tiny dataset renders: mark it ``blender`` (``-m "not blender"`` skips it)."""
+    for item in items:
+        if "tiny_dataset" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.blender)

@@ -3,9 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,28 +10,14 @@ import pytest
 from PIL import Image
 
 from deformsim.config import load_config
+from deformsim.dataset.manifest import read_manifest
 from deformsim.errors import UserError
-from deformsim.manifest import read_manifest
 from deformsim.pipeline import run
-from tests.util import ROOT
+from tests.util import CARTON_SPEC, cli
 
 # 2 intact + 2 deformed scene states (a split needs two of each), 1 epoch at 64 px.
 E2E = {"generate.n": 16, "render.resolution": 64, "render.samples": 4, "generate.seed": 5, "train.epochs": 1,
        "train.image_size": 64, "train.weights": "offline", "composite.variants": ["black", "backgrounds"]}
-CARTON_SPEC = ROOT / "examples" / "carton" / "spec.yaml"
-
-
-def cli(*args: str, **kw) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
-    return subprocess.run([sys.executable, "-m", "deformsim.cli", *args], cwd=ROOT, env=env, capture_output=True,
-                          text=True, timeout=900, **kw)
-
-
-@pytest.fixture(scope="module")
-def carton(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("mesh") / "carton.stl"
-    subprocess.run([sys.executable, str(ROOT / "examples" / "carton" / "make_carton.py"), str(out)], check=True)
-    return out
 
 
 def real_folder(data: Path, root: Path) -> Path:
@@ -47,6 +30,7 @@ def real_folder(data: Path, root: Path) -> Path:
     return root
 
 
+@pytest.mark.blender
 def test_run_on_the_builtin_can_makes_a_report_and_skips_what_is_done(tmp_path):
     cfg = load_config("quick", E2E)
     first = run(cfg, tmp_path / "run", progress=False)
@@ -63,6 +47,7 @@ def test_run_on_the_builtin_can_makes_a_report_and_skips_what_is_done(tmp_path):
     assert changed.skipped == ["generate", "composite:procedural"]
 
 
+@pytest.mark.blender
 def test_run_on_a_user_mesh(tmp_path, carton):
     cfg = load_config("quick", {**E2E, "object.mesh": carton, "object.spec": CARTON_SPEC})
     result = run(cfg, tmp_path / "run", progress=False)
@@ -91,6 +76,7 @@ def test_bad_specs_fail_before_rendering(tmp_path, carton, change, needle):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.blender
 def test_unknown_family_is_named(carton, tmp_path):
     cfg = load_config("quick", {**E2E, "object.mesh": carton, "object.spec": CARTON_SPEC,
                                 "deform.use_families": ["crush", "crumple"]})
@@ -99,6 +85,7 @@ def test_unknown_family_is_named(carton, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.blender
 @pytest.mark.parametrize("name, content, needle", [
     ("missing.stl", None, "mesh file not found"),
     ("empty.stl", b"", "is empty"),
@@ -113,17 +100,3 @@ def test_bad_meshes_fail_before_rendering(tmp_path, name, content, needle):
     proc = cli("run", "--object", str(mesh), "--spec", str(CARTON_SPEC), "--out", str(tmp_path / "out"))
     assert proc.returncode == 2 and needle in proc.stderr and name in proc.stderr, proc.stderr
     assert not (tmp_path / "out").exists()
-
-
-def test_spec_preview_shows_each_key(tmp_path, carton):
-    out = tmp_path / "keys.png"
-    proc = cli("spec", "preview", str(CARTON_SPEC), "--object", str(carton), "--out", str(out),
-               "--resolution", "64", "--samples", "2")
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    sheet = np.asarray(Image.open(out).convert("RGB")).astype(int)
-    tile = 64 + max(14, 64 // 8)
-    tiles = [sheet[r * tile:r * tile + 64, c * 64:(c + 1) * 64] for r in range(2) for c in range(5)]
-    rest, keys = tiles[0], tiles[1:1 + 6 + 2]  # 6 lattice keys, 2 crinkle textures
-    assert rest.mean() > 5  # the part is visible
-    for k, tile_img in enumerate(keys):
-        assert np.abs(tile_img - rest).mean() > 0.3, f"key tile {k} looks like the rest shape"

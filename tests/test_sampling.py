@@ -5,7 +5,7 @@ import pytest
 
 from deformsim.config import load_config
 from deformsim.sampling import SampleParams, label_for, sample_params
-from deformsim.spec import load_spec
+from deformsim.spec.model import load_spec
 
 HDRIS = ["city", "courtyard", "forest", "interior", "night", "studio", "sunrise", "sunset"]
 

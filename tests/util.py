@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -9,3 +12,12 @@ SHARED = ROOT.parent / "shared" / "data"
 
 # The tiny dataset the rendering tests share: 2 scene states (1 intact, 1 deformed) x 4 cameras, 64 px.
 TINY = {"generate.n": 8, "render.resolution": 64, "render.samples": 4, "generate.seed": 3}
+
+CARTON_SPEC = ROOT / "examples" / "carton" / "spec.yaml"
+
+
+def cli(*args: str, **kw) -> subprocess.CompletedProcess:
+    """Run ``python -m deformsim.cli ARGS`` from the repository root."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    return subprocess.run([sys.executable, "-m", "deformsim.cli", *args], cwd=ROOT, env=env, capture_output=True,
+                          text=True, timeout=900, **kw)

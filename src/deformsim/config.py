@@ -10,28 +10,16 @@ from pathlib import Path
 from typing import Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from deformsim.errors import UserError
+from deformsim.schema import Range, StrictModel, check_range, read_mapping
 
 PRESET_DIR = Path(__file__).parent / "presets"
 
-Range = tuple[float, float]
 
-
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
-
-
-def _check_range(v: Range, lo: float | None = None, hi: float | None = None) -> Range:
-    a, b = v
-    if a > b:
-        raise ValueError(f"range {list(v)} is empty (min > max)")
-    if lo is not None and a < lo:
-        raise ValueError(f"range {list(v)} goes below {lo}")
-    if hi is not None and b > hi:
-        raise ValueError(f"range {list(v)} goes above {hi}")
-    return v
+class _Model(StrictModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)  # overrides are validated too
 
 
 class ObjectConfig(_Model):
@@ -52,12 +40,12 @@ class CameraConfig(_Model):
     @field_validator("polar")
     @classmethod
     def _polar(cls, v: Range) -> Range:
-        return _check_range(v, 0, 180)
+        return check_range(v, 0, 180)
 
     @field_validator("radius")
     @classmethod
     def _radius(cls, v: Range) -> Range:
-        _check_range(v, 0)
+        check_range(v, 0)
         if v[0] <= 0:
             raise ValueError("camera radius must be positive")
         return v
@@ -67,7 +55,7 @@ class CameraConfig(_Model):
     def _quadrants(cls, v: list[Range]) -> list[Range]:
         if not v:
             raise ValueError("at least one camera (azimuth range) is needed")
-        return [_check_range(r, -360, 720) for r in v]
+        return [check_range(r, -360, 720) for r in v]
 
 
 class PoseConfig(_Model):
@@ -81,7 +69,7 @@ class PoseConfig(_Model):
     @field_validator("tilt")
     @classmethod
     def _tilt(cls, v: Range) -> Range:
-        return _check_range(v, 0, 180)
+        return check_range(v, 0, 180)
 
 
 class LightingConfig(_Model):
@@ -94,7 +82,7 @@ class LightingConfig(_Model):
     @field_validator("strength")
     @classmethod
     def _strength(cls, v: Range) -> Range:
-        return _check_range(v, 0)
+        return check_range(v, 0)
 
 
 class DeformConfig(_Model):
@@ -115,7 +103,7 @@ class DeformConfig(_Model):
     @field_validator("extent", "displacement")
     @classmethod
     def _pos(cls, v: Range) -> Range:
-        return _check_range(v, 0)
+        return check_range(v, 0)
 
 
 class RenderConfig(_Model):
@@ -148,6 +136,32 @@ class GenerateConfig(_Model):
     preview: int = Field(16, ge=0, description="images on the contact sheet")
 
 
+class CameraEffects(_Model):
+    """Camera effects drawn per composite (:mod:`deformsim.composite.effects`); None turns one off."""
+
+    exposure: Range | None = Field((-0.5, 0.5), description="exposure change in stops")
+    white_balance: Range | None = Field((-0.08, 0.08), description="red/blue gain shift (warm > 0)")
+    vignette: Range | None = Field((0.0, 0.35), description="darkening at the corners")
+    blur: Range | None = Field((0.0, 0.006), description="defocus: Gaussian sigma as a fraction of the image size")
+    noise: Range | None = Field((0.0, 0.025), description="sensor noise: standard deviation in 0-1 units")
+    jpeg_quality: tuple[int, int] | None = Field((45, 95), description="JPEG re-compression quality")
+
+    @field_validator("blur", "noise", "vignette")
+    @classmethod
+    def _nonneg(cls, v: Range | None) -> Range | None:
+        return v if v is None else check_range(v, 0)
+
+    @field_validator("exposure", "white_balance")
+    @classmethod
+    def _ordered(cls, v: Range | None) -> Range | None:
+        return v if v is None else check_range(v)
+
+    @field_validator("jpeg_quality")
+    @classmethod
+    def _quality(cls, v: tuple[int, int] | None) -> tuple[int, int] | None:
+        return v if v is None else check_range(v, 1, 100, name="jpeg_quality")
+
+
 class CompositeConfig(_Model):
     """Chroma-key matting and compositing onto backgrounds."""
 
@@ -164,11 +178,26 @@ class CompositeConfig(_Model):
     flip: bool = True
     workers: int = Field(0, ge=0)
     variants: list[str] = ["black", "backgrounds"]
+    balance_backgrounds: bool = Field(
+        False, description="use each photo about equally often behind intact and deformed images"
+    )
+    object_fill: Range | None = Field(
+        None, description="crop around the object so its longer side fills this fraction of the frame; None = as rendered"
+    )
+    fill_offset: float = Field(0.1, ge=0, le=0.5, description="random shift of the object from the frame centre")
+    effects: CameraEffects | None = Field(None, description="camera effects per composite; None = none")
+
+    @field_validator("object_fill")
+    @classmethod
+    def _fill(cls, v: Range | None) -> Range | None:
+        if v is not None and (v[0] <= 0 or v[1] > 1):
+            raise ValueError(f"object_fill {list(v)} must lie in (0, 1]")
+        return v if v is None else check_range(v)
 
     @field_validator("scale_jitter")
     @classmethod
     def _scale(cls, v: Range) -> Range:
-        _check_range(v, 1.0)
+        check_range(v, 1.0)
         return v
 
 
@@ -190,6 +219,19 @@ class TrainConfig(_Model):
     variants: list[str] = ["black", "backgrounds"]
     seed: int = 0
     device: Literal["auto", "cpu", "cuda"] = Field("auto", description="auto = cuda when available")
+    finetune: Literal["last_conv", "last_block"] = Field(
+        "last_conv", description="trainable part of the backbone: its last convolution (the paper) or last block"
+    )
+    head: Literal["mlp", "linear"] = Field("mlp", description="mlp: the paper's 3 layers; linear: a linear probe")
+    feature_norm: bool = Field(
+        False, description="batch-normalise the pooled features (lets --adapt re-estimate them on real photos)"
+    )
+    adapt_method: Literal["adabn", "selftrain"] = Field(
+        "adabn", description="with unlabelled photos: adabn re-estimates feature statistics; selftrain adds "
+        "confident pseudo-labels of the photos and trains on"
+    )
+    adapt_epochs: int = Field(5, ge=1, description="selftrain: epochs on synthetic + pseudo-labelled photos")
+    pseudo_confidence: float = Field(0.9, gt=0.5, lt=1, description="selftrain: keep photos predicted this surely")
 
 
 class Config(_Model):
@@ -229,12 +271,11 @@ def load_config(source: str | Path | None = None, overrides: dict | None = None)
         path = preset_path(str(source))
     if not path.is_file():
         raise UserError(f"config file not found: {source} (presets: {', '.join(list_presets())})")
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise UserError(f"config {path} is not valid YAML: {str(exc).splitlines()[0]}") from None
-    if not isinstance(data, dict):
-        raise UserError(f"config {path} must be a mapping of sections, got {type(data).__name__}")
+    return validate_config(apply_overrides(read_mapping(path, "config"), overrides), str(path))
+
+
+def apply_overrides(data: dict, overrides: dict | None) -> dict:
+    """``data`` with dotted keys (``"render.resolution"``) set to their values; ``None`` values are ignored."""
     for key, value in (overrides or {}).items():
         if value is None:
             continue
@@ -243,7 +284,7 @@ def load_config(source: str | Path | None = None, overrides: dict | None = None)
         for p in parents:
             node = node.setdefault(p, {})
         node[leaf] = value
-    return validate_config(data, str(path))
+    return data
 
 
 def validate_config(data: dict, origin: str = "config") -> Config:

@@ -16,7 +16,7 @@ from pathlib import Path
 from deformsim.atomic import write_json
 from deformsim.config import Config
 from deformsim.errors import UserError
-from deformsim.generate import data_settings, prepare
+from deformsim.generate.stage import data_settings, prepare
 from deformsim.log import get_logger
 
 log = get_logger(__name__)
@@ -28,7 +28,8 @@ def digest(obj) -> str:
 
 def folder_digest(folder: Path) -> str:
     """Identity of a folder of files: names, sizes and modification times."""
-    entries = sorted((str(p.relative_to(folder)), p.stat().st_size, int(p.stat().st_mtime)) for p in folder.rglob("*") if p.is_file())
+    entries = sorted((str(p.relative_to(folder)), p.stat().st_size, int(p.stat().st_mtime))
+                     for p in folder.rglob("*") if p.is_file())
     return digest(entries)
 
 
@@ -58,10 +59,10 @@ class Stages:
 
 def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True) -> RunResult:
     """Run every stage for ``cfg`` into ``out``; returns where things are and what each stage took."""
-    from deformsim.composite import composite
+    from deformsim.composite.stage import composite
+    from deformsim.dataset.real import real_table
     from deformsim.evaluate.experiments import run_experiments
-    from deformsim.generate import generate
-    from deformsim.learn.data import real_table
+    from deformsim.generate.stage import generate
     from deformsim.report.html import write_report
 
     out = Path(out)

@@ -13,7 +13,7 @@ import numpy as np
 
 from deformsim.config import Config
 from deformsim.errors import UserError
-from deformsim.spec import Spec
+from deformsim.spec.model import Spec
 
 
 @dataclass(frozen=True)
@@ -24,8 +24,8 @@ class CameraParams:
 
 
 @dataclass(frozen=True)
-class LabelParams:
-    """The can's printed label design (see :mod:`deformsim.label`)."""
+class CanDesign:
+    """The artwork printed on the can's side wall (drawn by :mod:`deformsim.blender.can_label`)."""
 
     hue: float
     saturation: float
@@ -58,7 +58,7 @@ class SampleParams:
     hdri_rotation: float  # degrees about the up axis
     hdri_strength: float
     cameras: tuple[CameraParams, ...]
-    design: LabelParams | None = None
+    design: CanDesign | None = None
     material: MaterialParams | None = None
     extent: float = 0.0
     pose_tilt: float = 0.0  # degrees away from upright
@@ -76,7 +76,7 @@ class SampleParams:
         d = dict(d)
         d["families"] = tuple(d["families"])
         d["cameras"] = tuple(CameraParams(**c) for c in d["cameras"])
-        d["design"] = LabelParams(**d["design"]) if d.get("design") else None
+        d["design"] = CanDesign(**d["design"]) if d.get("design") else None
         if d.get("material"):
             m = d["material"]
             d["material"] = MaterialParams(color=tuple(m["color"]), roughness=m["roughness"])
@@ -163,7 +163,7 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
 
     design = None
     if spec.builtin == "can":
-        design = LabelParams(
+        design = CanDesign(
             hue=float(rng.uniform(0, 1)),
             saturation=float(rng.uniform(0.35, 1.0)),
             value=float(rng.uniform(0.25, 0.95)),

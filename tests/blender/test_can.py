@@ -12,8 +12,8 @@ FACTS = """
 import json, bpy, bmesh, numpy as np
 from deformsim.blender.can import build_can, LID_Z
 from deformsim.blender.materials import set_label, apply_material
-from deformsim.sampling import LabelParams, MaterialParams
-from deformsim.spec import Material
+from deformsim.sampling import CanDesign, MaterialParams
+from deformsim.spec.model import Material
 bpy.ops.wm.read_factory_settings(use_empty=True)
 obj = build_can()
 me = obj.data
@@ -32,11 +32,11 @@ manifold = all(e.is_manifold for e in bm.edges)
 seal_d, tab_d = seal - base, tab - base
 seal_moved, tab_moved = np.linalg.norm(seal_d, axis=1) > 1e-7, np.linalg.norm(tab_d, axis=1) > 1e-7
 
-design = LabelParams(hue=0.0, saturation=0.9, value=0.8, accent_hue=0.6, bands=3, band_seed=7, word="COLA")
-set_label(obj, design)
+design = CanDesign(hue=0.0, saturation=0.9, value=0.8, accent_hue=0.6, bands=3, band_seed=7, word="COLA")
+set_label(design)
 px1 = np.array(bpy.data.images["LabelImage"].pixels[:])
 n_images = len(bpy.data.images)
-set_label(obj, LabelParams(0.5, 0.5, 0.3, 0.1, 2, 9, "FIZZ"))
+set_label(CanDesign(0.5, 0.5, 0.3, 0.1, 2, 9, "FIZZ"))
 px2 = np.array(bpy.data.images["LabelImage"].pixels[:])
 tex = me.materials["Label"].node_tree.nodes["LabelImage"]
 
@@ -128,7 +128,7 @@ def test_tiny_renders_show_the_can_and_each_new_label(tmp_path):
 import json, math, bpy, numpy as np
 from deformsim.blender.can import build_can
 from deformsim.blender.materials import set_label
-from deformsim.sampling import LabelParams
+from deformsim.sampling import CanDesign
 bpy.ops.wm.read_factory_settings(use_empty=True)
 obj = build_can()
 sc = bpy.context.scene
@@ -146,7 +146,7 @@ sc.render.use_persistent_data = True
 sc.render.image_settings.color_mode = "RGBA"
 out = []
 for i, hue in enumerate((0.0, 0.33)):
-    set_label(obj, LabelParams(hue, 0.9, 0.8, 0.6, 1, 7, "COLA"), 128, 64)
+    set_label(CanDesign(hue, 0.9, 0.8, 0.6, 1, 7, "COLA"), 128, 64)
     sc.render.filepath = r"{tmp_path}/can%d.png" % i
     bpy.ops.render.render(write_still=True)
     px = np.array(bpy.data.images.load(sc.render.filepath).pixels[:]).reshape(64, 64, 4)

@@ -13,9 +13,10 @@ pytestmark = pytest.mark.blender
 IMPORT = """
 import json, bpy
 from pathlib import Path
-from deformsim.blender.mesh_import import import_mesh, object_size
+from deformsim.blender.mesh_import import import_mesh
+from deformsim.blender.rig import mesh_bounds
 from deformsim.errors import UserError
-from deformsim.spec import load_spec
+from deformsim.spec.model import load_spec
 base = load_spec(None).model_copy(update=dict(builtin=None))
 out = {{}}
 for name, path, update in {cases!r}:
@@ -28,7 +29,8 @@ for name, path, update in {cases!r}:
         continue
     lo = [min(v.co[i] for v in obj.data.vertices) for i in range(3)]
     hi = [max(v.co[i] for v in obj.data.vertices) for i in range(3)]
-    out[name] = dict(name=obj.name, size=object_size(obj), lo=lo, hi=hi,
+    low, high = mesh_bounds(obj)
+    out[name] = dict(name=obj.name, size=(high - low).tolist(), lo=lo, hi=hi,
                      objects=sorted(o.name for o in bpy.data.objects), verts=len(obj.data.vertices),
                      faces=len(obj.data.polygons), smooth=all(p.use_smooth for p in obj.data.polygons))
 print(json.dumps(out))

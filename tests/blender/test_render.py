@@ -3,18 +3,17 @@
 from __future__ import annotations
 
 import dataclasses
-import json
-import shutil
 
 import numpy as np
 import pytest
 from PIL import Image
 
 from deformsim.config import load_config
-from deformsim.layout import Layout, image_id
+from deformsim.dataset.layout import Layout, image_id
+from deformsim.generate.worker_client import WorkerProcess
+from deformsim.hdri import list_hdris
 from deformsim.sampling import sample_params
-from deformsim.spec import load_spec
-from deformsim.worker_client import WorkerProcess, list_hdris
+from deformsim.spec.model import load_spec
 from tests.blender.conftest import TINY_RENDER, run_blender
 
 pytestmark = pytest.mark.blender
@@ -128,9 +127,10 @@ def test_world_hdris_match_bpy_free_listing(tmp_path):
     (tmp_path / "a.exr").write_bytes(b"x")
     out = run_blender(
         f"""
-import json
-from deformsim.blender.world import hdri_paths
-print(json.dumps({{"default": sorted(hdri_paths(None)), "user": sorted(hdri_paths({str(tmp_path)!r}))}}))
+import json, bpy
+from deformsim.blender.world import World
+paths = {{key: sorted(World(bpy.context.scene, d).paths) for key, d in (("default", None), ("user", {str(tmp_path)!r}))}}
+print(json.dumps(paths))
 """
     )
     assert out["default"] == list_hdris(None)

@@ -13,8 +13,8 @@ import json, numpy as np, bpy
 from deformsim.blender import scene
 from deformsim.blender.can import build_can
 from deformsim.blender.rig import build_rig
-from deformsim.spec import load_spec
-from deformsim.rig_ops import rest_lattice
+from deformsim.spec.model import load_spec
+from deformsim.spec.lattice_ops import rest_lattice
 scene.reset()
 obj = build_can()
 spec = load_spec(None)
@@ -99,7 +99,7 @@ from deformsim.blender import scene
 from deformsim.blender.can import build_can
 from deformsim.blender.rig import build_rig
 from deformsim.errors import UserError
-from deformsim.spec import load_spec
+from deformsim.spec.model import load_spec
 scene.reset()
 try:
     build_rig(build_can(), load_spec({str(spec)!r}))

@@ -6,7 +6,8 @@ import cv2
 import numpy as np
 import pandas as pd
 
-from deformsim.composite import binary_iou, chroma_matte, composite, inrange_matte
+from deformsim.composite.matte import binary_iou, chroma_matte, inrange_matte
+from deformsim.composite.stage import composite
 from deformsim.config import CompositeConfig
 
 CFG = CompositeConfig()

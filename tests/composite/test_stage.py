@@ -13,10 +13,11 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from deformsim.commands.composite import register
-from deformsim.composite import BackgroundWarning, composite
+from deformsim.cli.composite import register
+from deformsim.composite.backgrounds import BackgroundWarning
+from deformsim.composite.stage import composite
 from deformsim.config import CompositeConfig
-from deformsim.dataset import list_variants, variant_table
+from deformsim.dataset.variants import list_variants, variant_table
 from deformsim.errors import UserError
 
 

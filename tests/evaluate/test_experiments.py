@@ -10,7 +10,7 @@ from PIL import Image, ImageOps
 from typer.testing import CliRunner
 
 from deformsim.config import TrainConfig
-from deformsim.layout import RENDER_KINDS, Layout, image_id
+from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
 
 pytestmark = [pytest.mark.torch, pytest.mark.blender]
 
@@ -104,7 +104,7 @@ def test_report_from_experiments(experiments):
 def test_cli_evaluate_and_report(experiments, four_samples, real_dir, tmp_path):
     import typer
 
-    from deformsim.commands import evaluate
+    from deformsim.cli import evaluate
 
     app = typer.Typer()
     evaluate.register(app)

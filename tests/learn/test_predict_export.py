@@ -11,7 +11,7 @@ import torch
 import typer
 from typer.testing import CliRunner
 
-from deformsim.commands.learn import register
+from deformsim.cli.learn import register
 from deformsim.config import TrainConfig
 from deformsim.errors import UserError
 from deformsim.learn.data import load_image
@@ -92,7 +92,7 @@ def test_cli_train_predict_export(blobs, tmp_path):
 
 
 def test_train_reads_generated_dataset_variant(blobs, tmp_path):
-    from deformsim.commands.learn import load_table
+    from deformsim.dataset.tables import load_table
 
     rows = []
     for i, (p, y) in enumerate(zip(blobs["path"][::10], blobs["y"][::10])):

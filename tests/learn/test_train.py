@@ -10,9 +10,9 @@ import pytest
 import torch
 
 from deformsim.config import TrainConfig
+from deformsim.dataset.tables import split
 from deformsim.errors import UserError
 from deformsim.learn import features as F
-from deformsim.learn.data import split
 from deformsim.learn.models import build
 from deformsim.learn.predict import load
 from deformsim.learn.train import fit

@@ -9,11 +9,13 @@ import onnx
 import onnxruntime as ort
 import pytest
 import torch
+from pydantic import ValidationError
 from torchvision.models import mobilenet_v2
 
+from deformsim.config import TrainConfig
 from deformsim.errors import UserError
 from deformsim.learn import weights as W
-from deformsim.learn.models import backbone_features
+from deformsim.learn.backbones import backbone_features
 
 pytestmark = pytest.mark.torch
 
@@ -150,5 +152,5 @@ def test_missing_package_names_the_options(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("backbone,weights,bad", [("resnet50", "offline", "resnet50"), ("vgg16", "coco", "coco")])
 def test_bad_names(backbone, weights, bad):
-    with pytest.raises(UserError, match=bad):
-        W.resolve(backbone, weights)
+    with pytest.raises(ValidationError, match=bad):  # the config admits only what resolve knows
+        TrainConfig(backbone=backbone, weights=weights)

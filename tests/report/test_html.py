@@ -1,6 +1,5 @@
 """The report page, from a hand-made metrics dict shaped like run_experiments' output (no training here)."""
 
-import json
 import re
 
 import numpy as np
@@ -29,7 +28,8 @@ def _result(paths, y, prob, model):
         "train": {"n": 40, "n_deformed": 20, "n_samples": 10},
         "test": {"n": len(y), "n_deformed": int(sum(y))},
         "model": model, "weights": "offline",
-        "history": [{"epoch": 1, "loss": 0.7, "acc": 0.55, "seconds": 1.0}, {"epoch": 2, "loss": 0.4, "acc": 0.8, "seconds": 1.0}],
+        "history": [{"epoch": 1, "loss": 0.7, "acc": 0.55, "seconds": 1.0},
+                    {"epoch": 2, "loss": 0.4, "acc": 0.8, "seconds": 1.0}],
         "train_seconds": 2.0, "predict_seconds": 0.5,
         "metrics": compute_metrics(y, prob, 0.5),
         "predictions": [{"path": p, "y": a, "prob": b} for p, a, b in zip(paths, y, prob)],
@@ -67,7 +67,7 @@ def test_report_shows_the_numbers_and_is_self_contained(metrics):
     m, out = metrics
     path = write_report(m, out)
     html = path.read_text()
-    assert json.loads((out / "metrics.json").read_text())["variants"]["black"]["real"]["metrics"] == m["variants"]["black"]["real"]["metrics"]
+    assert not (out / "metrics.json").exists()  # run_experiments writes it; the report only renders
     # headline: best sim-to-real accuracy (backgrounds: 7/8) and every Table II number
     hero = html[html.index('class="hero"'):html.index("Table II")]
     assert "87.5%" in hero and "backgrounds" in hero

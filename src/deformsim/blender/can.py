@@ -11,7 +11,9 @@ from __future__ import annotations
 import math
 
 import bpy
-import bmesh  # noqa: I001 (bmesh is importable only once bpy is)
+
+# isort: split
+import bmesh  # importable only once bpy is
 import numpy as np
 
 SEGMENTS = 64
@@ -192,7 +194,7 @@ def build_can() -> bpy.types.Object:
     for idx, part in m.faces:
         f = bm.faces.new([verts[i] for i in idx])
         f.smooth = True
-        us = [(math.atan2(l.vert.co.y, l.vert.co.x) / (2 * math.pi)) % 1 for l in f.loops]
+        us = [(math.atan2(lp.vert.co.y, lp.vert.co.x) / (2 * math.pi)) % 1 for lp in f.loops]
         for loop, u in zip(f.loops, us):
             if part == "wall":
                 if max(us) - u > 0.5:  # the face that closes the loop: u runs 63/64 -> 1

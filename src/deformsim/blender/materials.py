@@ -9,9 +9,9 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from deformsim.label import make_label
-from deformsim.sampling import LabelParams, MaterialParams
-from deformsim.spec import Material
+from deformsim.blender.can_label import make_label
+from deformsim.sampling import CanDesign, MaterialParams
+from deformsim.spec.model import Material
 
 LABEL_IMAGE = "LabelImage"
 OBJECT_MATERIAL = "ObjectMaterial"
@@ -88,10 +88,8 @@ def can_materials(obj: bpy.types.Object) -> None:
     mats.append(alu)
 
 
-def set_label(obj: bpy.types.Object, design: LabelParams, width: int = 512, height: int = 256) -> None:
+def set_label(design: CanDesign, width: int = 512, height: int = 256) -> None:
     """Print ``design`` into the shared "LabelImage" (pixels overwritten; no new image per sample)."""
-    if obj.data.materials.get("Label") is None:
-        can_materials(obj)
     img = label_image(width, height)
     pixels = np.ascontiguousarray(make_label(design, width, height)[::-1])  # Blender rows go bottom-up
     img.pixels.foreach_set(pixels.ravel())
@@ -102,18 +100,12 @@ def set_label(obj: bpy.types.Object, design: LabelParams, width: int = 512, heig
     img.alpha_mode = "NONE" if img.alpha_mode == "STRAIGHT" else "STRAIGHT"
 
 
-def apply_material(obj: bpy.types.Object, spec_material: Material, params: MaterialParams | None) -> None:
-    """Give a user mesh its one material: ``spec_material.kind`` with ``params`` colour and roughness.
-
-    Without ``params`` the middle of the spec's colour and roughness ranges is used.
-    """
+def apply_material(obj: bpy.types.Object, spec_material: Material, params: MaterialParams) -> None:
+    """Give a user mesh its one material: ``spec_material.kind`` with ``params`` colour and roughness."""
     mat, new = _material(OBJECT_MATERIAL)
     bsdf = _bsdf(mat)
     if new:
         _bump(mat, bsdf, 1200.0, 0.02)
-    if params is None:
-        lo, hi = spec_material.color
-        params = MaterialParams(tuple((a + b) / 2 for a, b in zip(lo, hi)), sum(spec_material.roughness) / 2)
     _set(bsdf, {**_KINDS[spec_material.kind], "Base Color": (*params.color, 1.0), "Roughness": params.roughness,
                 "Coat Roughness": 0.1})
     mats = obj.data.materials

@@ -11,11 +11,14 @@ import math
 from pathlib import Path
 
 import bpy
-import bmesh  # noqa: I001 (bmesh is importable only once bpy is)
+
+# isort: split
+import bmesh  # importable only once bpy is
 import numpy as np
 
+from deformsim.blender.rig import mesh_bounds
 from deformsim.errors import UserError
-from deformsim.spec import Spec, check_mesh_file
+from deformsim.spec.model import Spec, check_mesh_file
 
 NAME = "Object"
 _RAW = {"forward_axis": "Y", "up_axis": "Z"}  # identity axes for the formats without a convention
@@ -105,23 +108,12 @@ def _normalise(mesh: bpy.types.Mesh, spec: Spec, path: Path) -> None:
     mesh.update()
 
 
-def object_size(obj: bpy.types.Object) -> tuple[float, float, float]:
-    """World-space bounding-box size (dx, dy, dz) of ``obj``'s mesh at rest, in metres."""
-    co = np.empty(len(obj.data.vertices) * 3, np.float64)
-    obj.data.vertices.foreach_get("co", co)
-    co = co.reshape(-1, 3)
-    m = np.array(obj.matrix_world)
-    world = co @ m[:3, :3].T + m[:3, 3]
-    size = world.max(0) - world.min(0)
-    return float(size[0]), float(size[1]), float(size[2])
-
-
 def main(argv: list[str] | None = None) -> int:
     """``python -m deformsim.blender.mesh_import MESH [SPEC]``: import only; print the size or the problem."""
     import json
     import sys
 
-    from deformsim.spec import load_spec
+    from deformsim.spec.model import load_spec
 
     args = sys.argv[1:] if argv is None else argv
     try:
@@ -129,7 +121,8 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as exc:
         print(exc, file=sys.stderr)
         return 2
-    print(json.dumps({"size": object_size(obj), "vertices": len(obj.data.vertices)}))
+    lo, hi = mesh_bounds(obj)
+    print(json.dumps({"size": (hi - lo).tolist(), "vertices": len(obj.data.vertices)}))
     return 0
 
 

@@ -24,9 +24,9 @@ from deformsim.blender.pose import set_pose
 from deformsim.blender.rig import Rig
 from deformsim.blender.world import World
 from deformsim.config import Config
-from deformsim.layout import Layout, image_id
+from deformsim.dataset.layout import Layout, image_id
 from deformsim.sampling import SampleParams
-from deformsim.spec import Spec
+from deformsim.spec.model import Spec
 
 BACKGROUNDS = {"black": (0, 0, 0), "green": (0, 255, 0)}  # sRGB 8-bit; linear green (0, 1, 0) is the same
 
@@ -47,7 +47,7 @@ class RenderContext:
     camera_scale: float = 1.0
 
 
-def composite(rgba: np.ndarray, color: tuple[int, int, int]) -> np.ndarray:
+def over_color(rgba: np.ndarray, color: tuple[int, int, int]) -> np.ndarray:
     """Straight-alpha RGBA (uint8) over a flat colour, rounded to nearest: an RGB uint8 image."""
     a = rgba[..., 3:4].astype(np.uint32)
     rgb = rgba[..., :3].astype(np.uint32)
@@ -82,7 +82,7 @@ def apply_state(ctx: RenderContext, p: SampleParams) -> None:
     ctx.rig.set(p.keys, p.displacement, p.seal, p.tab)
     set_pose(ctx.pivot, p.pose_tilt, p.pose_axis)
     if p.design is not None:
-        materials.set_label(ctx.obj, p.design)
+        materials.set_label(p.design)
     if p.material is not None:
         materials.apply_material(ctx.obj, ctx.spec.material, p.material)
     ctx.world.set(p.hdri, p.hdri_rotation, p.hdri_strength)
@@ -107,7 +107,7 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> list[f
                 img[rgba[..., 3] == 0] = color  # the denoiser can tint flat corners; uncovered pixels are exact
                 t += dt
             else:
-                img = composite(rgba, color)
+                img = over_color(rgba, color)
             _save(layout.image(kind, iid), img)
         seconds.append(t)
     return seconds

@@ -1,6 +1,6 @@
 """The deformation rig: a B-spline lattice with one shape key per spec key, plus crinkle shape keys.
 
-Lattice keys come from :func:`deformsim.rig_ops.key_points`; crinkle keys are hard Stucci DISPLACE
+Lattice keys come from :func:`deformsim.spec.lattice_ops.key_points`; crinkle keys are hard Stucci DISPLACE
 modifiers baked as mesh shape keys on the undeformed mesh, limited to the vertex group ``crinkle``.
 """
 
@@ -12,8 +12,8 @@ import bpy
 import numpy as np
 
 from deformsim.errors import UserError
-from deformsim.rig_ops import key_points, rest_lattice, select_vertices
-from deformsim.spec import Spec
+from deformsim.spec.lattice_ops import key_points, rest_lattice, select_vertices
+from deformsim.spec.model import Spec
 
 SLIDER_MAX = 3.0
 CRINKLE_GROUP = "crinkle"
@@ -93,7 +93,7 @@ def _lattice(obj, spec: Spec):
         setattr(data, f"interpolation_type_{axis}", "KEY_BSPLINE")
     rest = rest_lattice(spec.lattice.points)
     if not np.allclose(_vectors(data.points, "co"), rest, atol=1e-5):
-        raise RuntimeError("Blender's lattice point order differs from rig_ops.rest_lattice")
+        raise RuntimeError("Blender's lattice point order differs from lattice_ops.rest_lattice")
     lat.shape_key_add(name="Basis", from_mix=False)
     for fam in spec.families:
         for key in fam.keys:

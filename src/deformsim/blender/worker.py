@@ -1,4 +1,4 @@
-"""Render worker: ``python -m deformsim.blender.worker``, driven by :class:`deformsim.worker_client.WorkerProcess`.
+"""Render worker: ``python -m deformsim.blender.worker``, driven by :class:`deformsim.generate.worker_client.WorkerProcess`.
 
 JSON lines on stdin, one reply line each on the real stdout (Blender's own prints go to stderr):
 
@@ -43,8 +43,8 @@ def setup(msg: dict):
     from deformsim.blender.rig import build_rig, mesh_bounds
     from deformsim.blender.world import World
     from deformsim.config import validate_config
-    from deformsim.layout import Layout
-    from deformsim.spec import load_spec
+    from deformsim.dataset.layout import Layout
+    from deformsim.spec.model import load_spec
 
     cfg = validate_config(msg["config"], "worker config")
     spec = load_spec(msg.get("spec_path"))
@@ -54,6 +54,8 @@ def setup(msg: dict):
         from deformsim.blender import can, materials
 
         obj = can.build_can()
+        # Not a no-op: clearing the slots resets every face to slot 0 ("Label"), so the whole can renders
+        # with the label material. Kept because removing it changes every rendered can image.
         materials.can_materials(obj)
     else:
         from deformsim.blender.mesh_import import import_mesh

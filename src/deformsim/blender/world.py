@@ -12,25 +12,16 @@ from pathlib import Path
 
 import bpy
 
-from deformsim.worker_client import list_hdris, hdri_files
+from deformsim.hdri import hdri_files
 
 MAX_CACHED = 4  # HDRI images kept loaded at once
-
-
-def hdri_paths(hdri_dir: Path | None) -> dict[str, Path]:
-    """HDRI name -> file: ``hdri_dir``'s .exr/.hdr files, or Blender's studio lights when None."""
-    if hdri_dir is None:
-        system = Path(bpy.utils.system_resource("DATAFILES", path="studiolights/world"))
-        return {p.stem: p for p in sorted(system.glob("*.exr"))}
-    files = hdri_files(Path(hdri_dir))
-    return {name: files[name] for name in list_hdris(hdri_dir)}
 
 
 class World:
     """The scene's world node tree; :meth:`set` picks the HDRI, rotation, strength and camera colour."""
 
     def __init__(self, scene, hdri_dir: Path | None):
-        self.paths = hdri_paths(hdri_dir)
+        self.paths = hdri_files(hdri_dir)  # the driver drew the samples' HDRI names from the same lookup
         self.images: OrderedDict[str, object] = OrderedDict()
         world = bpy.data.worlds.new("HDRI")
         scene.world = world

@@ -14,9 +14,9 @@ import cv2
 import numpy as np
 from PIL import Image, ImageOps
 
+from deformsim.dataset.images import IMAGE_EXTS, images_in
 from deformsim.errors import UserError
 
-IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".bmp", ".webp", ".tif", ".tiff"}
 PROCEDURAL_KINDS = ("gradient", "noise", "shapes", "texture")
 MAX_KEY_DOMINANCE = 96  # procedural colours never look like a green screen (g - max(r, b) stays below)
 
@@ -34,7 +34,7 @@ def scan_backgrounds(folder: str | Path) -> list[Path]:
     if not folder.is_dir():
         raise UserError(f"background folder not found: {folder}")
     found = []
-    for p in sorted(q for q in folder.rglob("*") if q.suffix.lower() in IMAGE_SUFFIXES and q.is_file()):
+    for p in images_in(folder):
         try:
             with Image.open(p) as im:
                 im.size  # noqa: B018 - parse the header
@@ -42,7 +42,7 @@ def scan_backgrounds(folder: str | Path) -> list[Path]:
         except Exception as exc:  # PIL raises many types for bad files
             warn_skipped(p, exc)
     if not found:
-        raise UserError(f"background folder {folder} holds no readable image ({', '.join(sorted(IMAGE_SUFFIXES))})")
+        raise UserError(f"background folder {folder} holds no readable image ({', '.join(sorted(IMAGE_EXTS))})")
     return found
 
 

@@ -24,14 +24,21 @@ import pandas as pd
 
 from deformsim.atomic import write_json
 from deformsim.composite.backgrounds import (
-    PROCEDURAL_KINDS, fit, load_photo, procedural, scan_backgrounds, warn_skipped,
+    PROCEDURAL_KINDS,
+    fit,
+    load_photo,
+    procedural,
+    scan_backgrounds,
+    warn_skipped,
 )
 from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inrange_matte
 from deformsim.config import CompositeConfig
-from deformsim.dataset import VARIANT_MANIFEST
+from deformsim.dataset.layout import RENDER_KINDS, Layout
+from deformsim.dataset.manifest import read_manifest
+from deformsim.dataset.variants import VARIANT_MANIFEST
 from deformsim.errors import UserError
-from deformsim.layout import RENDER_KINDS, Layout
-from deformsim.manifest import read_manifest
+from deformsim.log import progress_bar
+from deformsim.parallel import worker_count
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 _STATE: dict = {}
@@ -68,7 +75,7 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
         (tmp / "images").mkdir()
         state = {"cfg": cfg.model_dump(), "seed": seed, "photos": photos, "out": str(tmp / "images"),
                  "prefix": f"variants/{name}/images"}
-        rows, bad = _run(jobs, state, _workers(cfg.workers, len(jobs)), progress)
+        rows, bad = _run(jobs, state, worker_count(len(jobs), cfg.workers, most=8, jobs_each=16), progress)
         for path, reason in sorted(bad.items()):
             warn_skipped(Path(path), reason)
         if photos:
@@ -97,22 +104,11 @@ def _jobs(layout: Layout, manifest: pd.DataFrame, source: str) -> list[tuple[str
     return jobs
 
 
-def _workers(requested: int, n: int) -> int:
-    if requested:
-        return max(1, min(requested, n))
-    return max(1, min(os.cpu_count() or 1, 8, math.ceil(n / 16)))
-
-
 def _run(jobs: list, state: dict, workers: int, progress: bool) -> tuple[list[dict], dict[str, str]]:
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
     size = max(1, min(32, len(jobs) // (workers * 4) or 1))
     chunks = [jobs[i : i + size] for i in range(0, len(jobs), size)]
     rows, bad = [], {}
-    bar = Progress(TextColumn("composite"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-                   disable=not progress)
-    with bar:
-        task = bar.add_task("composite", total=len(jobs))
+    with progress_bar(len(jobs), "composite", progress) as bar:
         if workers == 1:
             _init(state)
             results = (_chunk(c) for c in chunks)
@@ -124,7 +120,7 @@ def _run(jobs: list, state: dict, workers: int, progress: bool) -> tuple[list[di
             for chunk_rows, chunk_bad in results:
                 rows.extend(chunk_rows)
                 bad.update(chunk_bad)
-                bar.advance(task, len(chunk_rows))
+                bar.update(len(chunk_rows))
         finally:
             if pool is not None:
                 pool.shutdown(cancel_futures=True)

@@ -19,10 +19,11 @@ import pandas as pd
 
 from deformsim.atomic import write_bytes, write_json
 from deformsim.config import TrainConfig
-from deformsim.dataset import list_variants, variant_table
+from deformsim.dataset.real import real_table
+from deformsim.dataset.tables import split
+from deformsim.dataset.variants import list_variants, variant_table
 from deformsim.errors import UserError
 from deformsim.evaluate.metrics import compute_metrics
-from deformsim.learn.data import split
 from deformsim.log import get_logger
 
 log = get_logger(__name__)
@@ -33,7 +34,7 @@ EXAMPLES_PER_CLASS = 3
 def grouped_split(table: pd.DataFrame, train_fraction: float, seed: int) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Split ``table`` into (train, test) by whole samples, keeping each label's share of samples.
 
-    Uses :func:`deformsim.learn.data.split` (each label keeps its share, at least one sample on each side).
+    Uses :func:`deformsim.dataset.tables.split` (each label keeps its share, at least one sample on each side).
     Raises :class:`UserError` when a label has fewer than two samples or a sample's views
     disagree on the label.
     """
@@ -120,13 +121,12 @@ def run_experiments(
 ) -> dict:
     """Run Table II for every variant of ``cfg.variants`` present in ``data_root``; write ``metrics.json``."""
     from deformsim.evaluate import pca
-    from deformsim.learn import data as learn_data
     from deformsim.learn import predict
 
     t_start = time.perf_counter()
     data_root, out_dir = Path(data_root), Path(out_dir)
     tables, missing = _load_tables(data_root, cfg)
-    real = learn_data.real_table(real_dir) if real_dir is not None else None
+    real = real_table(real_dir) if real_dir is not None else None
     rng = np.random.default_rng(cfg.seed)
 
     variants: dict[str, dict] = {}
@@ -194,7 +194,6 @@ def evaluate_model(
     only. ``threshold`` defaults to the model's training threshold.
     Returns ``{"model", "test", "n_images", "held_out", "metrics", "predictions"}``.
     """
-    from deformsim.learn import data as learn_data
     from deformsim.learn import predict
 
     if (real_dir is None) == (data_root is None):
@@ -206,12 +205,12 @@ def evaluate_model(
     predictor = predict.load(model)
     held_out = False
     if real_dir is not None:
-        table, test = learn_data.real_table(real_dir), str(real_dir)
+        table, test = real_table(real_dir), str(real_dir)
     else:
         table, test = variant_table(data_root, variant), f"{data_root} / {variant}"
-        split = predictor.path.parent / "split.json"
-        if split.is_file():
-            table = table[table["id"].isin(json.loads(split.read_text())["test"])].reset_index(drop=True)
+        split_file = predictor.path.parent / "split.json"
+        if split_file.is_file():
+            table = table[table["id"].isin(json.loads(split_file.read_text())["test"])].reset_index(drop=True)
             held_out = True
     prob = predictor.predict_proba(list(table["path"]))
     threshold = predictor.cfg.threshold if threshold is None else threshold

@@ -9,9 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from deformsim.dataset.images import CLASSES
 from deformsim.errors import UserError
-
-LABELS = ("intact", "deformed")  # index = y
 
 
 def _ratio(num: float, den: float) -> float:
@@ -59,7 +58,7 @@ def compute_metrics(y_true, prob, threshold: float = 0.5) -> dict:
         "f1": _ratio(2 * precision * recall, precision + recall),
         "confusion": {
             "matrix": cm.tolist(),
-            "rows": [f"true {c}" for c in LABELS],
-            "cols": [f"predicted {c}" for c in LABELS],
+            "rows": [f"true {c}" for c in CLASSES],
+            "cols": [f"predicted {c}" for c in CLASSES],
         },
     }

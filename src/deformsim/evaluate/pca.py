@@ -12,8 +12,10 @@ import numpy as np
 import pandas as pd
 from PIL import Image
 
+from deformsim.dataset.images import CLASSES
+
 MAX_PER_DOMAIN = 200
-MARKERS = {0: ("o", "intact"), 1: ("^", "deformed")}
+MARKERS = {y: (marker, CLASSES[y]) for y, marker in enumerate(("o", "^"))}
 COLORS = ("#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#17becf", "#7f7f7f")
 REAL_COLOR = "#d62728"
 

@@ -1,4 +1,5 @@
-"""The condition-assessment model (torch): weights, model, feature cache, training, prediction, ONNX export.
+"""The condition-assessment model (torch): backbones and weights, model, feature cache, training, checkpoint,
+prediction, ONNX export.
 
 Modules import torch; the CLI imports them inside its commands only.
 """

@@ -14,8 +14,8 @@ import torch
 from torch import nn
 
 from deformsim.atomic import atomic_path
+from deformsim.learn.checkpoint import read_checkpoint, restore
 from deformsim.learn.models import DeformNet
-from deformsim.learn.predict import read_checkpoint, restore
 
 
 class _Probabilities(nn.Module):

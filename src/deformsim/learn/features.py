@@ -1,10 +1,11 @@
 """Per-image cache of the frozen stem's outputs: each image goes through the frozen layers once.
 
 Every model built from the same backbone weights shares its frozen stem, so the cache is keyed per image:
-``cache_dir()/features/<backbone>-<size>-<stem hash>/<image hash>.pt`` holds one image's activations entering the
-first trainable layer, in float32 so cached predictions equal uncached ones (and the ONNX export) to 1e-5. The stem hash covers the frozen weights themselves; the image hash its
-resolved path, size and modification time, so a rewritten image or other weights make new files. Training,
-prediction and PCA features of every run read the same files.
+``cache_dir()/features/<backbone>-<size>-<stem hash>/<image hash>.pt`` holds one image's activations entering
+the first trainable layer, in float32 so cached predictions equal uncached ones (and the ONNX export) to 1e-5.
+The stem hash covers the frozen weights themselves; the image hash its resolved path, size and modification
+time, so a rewritten image or other weights make new files. Training, prediction and PCA features of every run
+read the same files.
 """
 
 from __future__ import annotations
@@ -15,12 +16,12 @@ from pathlib import Path
 from weakref import WeakKeyDictionary
 
 import torch
-from tqdm import tqdm
 
 from deformsim.atomic import atomic_path
 from deformsim.learn.data import ImageSet
 from deformsim.learn.models import DeformNet
 from deformsim.learn.weights import cache_dir
+from deformsim.log import progress_bar
 
 _STEM_HASHES: WeakKeyDictionary = WeakKeyDictionary()  # model -> (weight versions, hash)
 
@@ -58,9 +59,10 @@ def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, pro
     was_training = model.training
     model.eval()
     out = []
-    with torch.inference_mode():
-        for x in tqdm(loader, desc="frozen layers", unit="batch", disable=not progress, leave=False):
+    with torch.inference_mode(), progress_bar(len(loader), "frozen layers", progress) as bar:
+        for x in loader:
             out.append(model.stem(x.to(device)).cpu())
+            bar.update()
     model.train(was_training)
     return torch.cat(out)
 
@@ -68,9 +70,7 @@ def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, pro
 def _load(path: Path) -> torch.Tensor | None:
     try:
         return torch.load(path, map_location="cpu", weights_only=True)
-    except FileNotFoundError:
-        return None
-    except Exception:  # torch raises several types for truncated or foreign files; recomputed
+    except Exception:  # not cached yet, or truncated or foreign (torch raises several types): recomputed
         return None
 
 

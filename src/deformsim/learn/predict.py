@@ -7,38 +7,15 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from deformsim.config import TrainConfig
+from deformsim.dataset.images import CLASSES
 from deformsim.errors import UserError
+from deformsim.learn.checkpoint import read_checkpoint, restore
 from deformsim.learn.data import ImageSet
+from deformsim.learn.device import pick_device, set_threads
 from deformsim.learn.features import cached_stem
-from deformsim.learn.models import DeformNet, build
-from deformsim.learn.train import MODEL_FILE, pick_device, set_threads
 
 LAYERS = ("penultimate", "pooled")
 CHUNK = 512  # images whose cached stem activations are held in memory at once
-
-
-def read_checkpoint(model_path: str | Path) -> tuple[dict, Path]:
-    """The saved dict of ``model.pt`` (or of a folder holding it) and its path."""
-    path = Path(model_path)
-    if path.is_dir():
-        path = path / MODEL_FILE
-    if not path.is_file():
-        raise UserError(f"no trained model at {model_path} (expected {MODEL_FILE}; run deformsim train)")
-    try:
-        ckpt = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as exc:  # torch raises several types for corrupt or foreign files
-        raise UserError(f"{path} is not a deformsim model: {exc}") from None
-    if not isinstance(ckpt, dict) or "state_dict" not in ckpt or "config" not in ckpt:
-        raise UserError(f"{path} is not a deformsim model (no state_dict/config)")
-    return ckpt, path
-
-
-def restore(ckpt: dict) -> tuple[DeformNet, TrainConfig]:
-    cfg = TrainConfig.model_validate(ckpt["config"])
-    model, _ = build(cfg, load_weights=False)
-    model.load_state_dict(ckpt["state_dict"])
-    return model.eval(), cfg
 
 
 class Predictor:
@@ -50,7 +27,7 @@ class Predictor:
         self.model.to(self.device)
         self.path = path
         self.weights: str = ckpt.get("weights", "")
-        self.classes: list[str] = ckpt.get("classes", ["intact", "deformed"])
+        self.classes: list[str] = ckpt.get("classes", list(CLASSES))
         self.history: list[dict] = ckpt.get("history", [])
         self.split: dict = ckpt.get("split", {})
 

@@ -6,7 +6,6 @@ images (:mod:`deformsim.learn.features`); otherwise each batch goes through the 
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,16 +13,18 @@ from pathlib import Path
 import pandas as pd
 import torch
 from torch import nn
-from tqdm import tqdm
 
-from deformsim.atomic import atomic_path, write_json
+from deformsim.atomic import write_json
 from deformsim.config import TrainConfig
-from deformsim.errors import UserError
-from deformsim.learn.data import CLASSES, ImageSet, augmenter, check_table, split
+from deformsim.dataset.tables import check_table, split
+from deformsim.learn import checkpoint
+from deformsim.learn.data import ImageSet, augmenter
+from deformsim.learn.device import pick_device, set_threads
 from deformsim.learn.features import cached_stem
 from deformsim.learn.models import DeformNet, build
+from deformsim.log import get_logger, progress_bar
 
-MODEL_FILE = "model.pt"
+log = get_logger(__name__)
 
 
 @dataclass
@@ -32,17 +33,6 @@ class TrainResult:
     history: list[dict]  # per epoch: epoch, loss, acc (train), val_loss, val_acc (None without a val split), seconds
     weights: str
     seconds: float
-
-
-def set_threads() -> None:
-    torch.set_num_threads(max(1, len(os.sched_getaffinity(0))))
-
-
-def pick_device(name: str) -> torch.device:
-    """``auto``: cuda when available, else cpu."""
-    if name == "cuda" and not torch.cuda.is_available():
-        raise UserError("train.device is cuda but torch sees no CUDA GPU (use auto or cpu)")
-    return torch.device("cuda" if name == "cuda" or (name == "auto" and torch.cuda.is_available()) else "cpu")
 
 
 class _Inputs:
@@ -64,7 +54,8 @@ class _Inputs:
             return self.model.stem(torch.stack([images[int(i)] for i in rows]).to(self.device))
 
 
-def _evaluate(model: DeformNet, inputs: _Inputs, rows: torch.Tensor, y: torch.Tensor, cfg: TrainConfig) -> tuple[float | None, float | None]:
+def _evaluate(model: DeformNet, inputs: _Inputs, rows: torch.Tensor, y: torch.Tensor,
+              cfg: TrainConfig) -> tuple[float | None, float | None]:
     if len(rows) == 0:
         return None, None
     model.eval()
@@ -94,31 +85,32 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     order = torch.Generator().manual_seed(cfg.seed)
     torch.manual_seed(cfg.seed)  # dropout and augmentation draw from here; a cache miss must not shift them
     history = []
-    bar = tqdm(range(1, cfg.epochs + 1), desc="epochs", unit="epoch", disable=not progress)
-    for epoch in bar:
-        t0 = time.perf_counter()
-        model.train()
-        total, correct = 0.0, 0
-        for batch in train_rows[torch.randperm(len(train_rows), generator=order)].split(cfg.batch_size):
-            logits, target = model.tail(inputs(batch, train=True)), y[batch.to(device)]
-            loss = loss_fn(logits, target)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            total += loss.item() * len(batch)
-            correct += int(((torch.sigmoid(logits) >= cfg.threshold).float() == target).sum())
-        val_loss, val_acc = _evaluate(model, inputs, val_rows, y, cfg)
-        row = {"epoch": epoch, "loss": total / len(train_rows), "acc": correct / len(train_rows),
-               "val_loss": val_loss, "val_acc": val_acc, "seconds": time.perf_counter() - t0}
-        history.append(row)
-        bar.set_postfix(loss=f"{row['loss']:.3f}", acc=f"{row['acc']:.2f}", val_acc="-" if val_acc is None else f"{val_acc:.2f}")
+    with progress_bar(cfg.epochs, "epochs", progress) as bar:
+        for epoch in range(1, cfg.epochs + 1):
+            t0 = time.perf_counter()
+            model.train()
+            total, correct = 0.0, 0
+            for batch in train_rows[torch.randperm(len(train_rows), generator=order)].split(cfg.batch_size):
+                logits, target = model.tail(inputs(batch, train=True)), y[batch.to(device)]
+                loss = loss_fn(logits, target)
+                opt.zero_grad()
+                loss.backward()
+                opt.step()
+                total += loss.item() * len(batch)
+                correct += int(((torch.sigmoid(logits) >= cfg.threshold).float() == target).sum())
+            val_loss, val_acc = _evaluate(model, inputs, val_rows, y, cfg)
+            row = {"epoch": epoch, "loss": total / len(train_rows), "acc": correct / len(train_rows),
+                   "val_loss": val_loss, "val_acc": val_acc, "seconds": time.perf_counter() - t0}
+            history.append(row)
+            bar.update()
+            if progress:
+                log.info("epoch %d/%d: loss %.3f, acc %.2f, val_acc %s", epoch, cfg.epochs, row["loss"], row["acc"],
+                         "-" if val_acc is None else f"{val_acc:.2f}")
     out_dir = Path(out_dir)
-    model_path = out_dir / MODEL_FILE
+    model_path = out_dir / checkpoint.MODEL_FILE
     seconds = time.perf_counter() - start
     split_ids = {"train": table["id"].iloc[train_rows.numpy()].tolist(), "val": table["id"].iloc[val_rows.numpy()].tolist()}
-    with atomic_path(model_path) as tmp:
-        torch.save({"state_dict": {k: v.cpu() for k, v in model.state_dict().items()}, "config": cfg.model_dump(mode="json"), "weights": weights,
-                    "classes": list(CLASSES), "history": history, "split": split_ids}, tmp)
+    checkpoint.save(model_path, model, cfg, weights, history, split_ids)
     write_json(out_dir / "train.json", {"weights": weights, "seconds": seconds, "history": history,
                                         "n_train": len(train_rows), "n_val": len(val_rows),
                                         "config": cfg.model_dump(mode="json")})

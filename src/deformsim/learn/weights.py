@@ -32,9 +32,7 @@ import torch
 
 from deformsim.atomic import atomic_path
 from deformsim.errors import UserError
-
-BACKBONES = ("vgg16", "mobilenet_v2")
-WEIGHT_CHOICES = ("imagenet", "offline", "none")
+from deformsim.learn.backbones import backbone_features
 
 # torchvision's normalisation (0-1 RGB) and the Caffe VGG preprocessing (0-255 BGR, mean subtracted).
 TORCH_MEAN = np.array([0.485, 0.456, 0.406])
@@ -80,11 +78,10 @@ def sha256(path: Path) -> str:
 
 
 def resolve(backbone: str, weights: str) -> tuple[dict | None, str]:
-    """The backbone's ``features`` state dict (None for ``weights: none``) and where it came from."""
-    if backbone not in BACKBONES:
-        raise UserError(f"unknown backbone '{backbone}' (choose from {', '.join(BACKBONES)})")
-    if weights not in WEIGHT_CHOICES:
-        raise UserError(f"unknown weights '{weights}' (choose from {', '.join(WEIGHT_CHOICES)})")
+    """The backbone's ``features`` state dict (None for ``weights: none``) and where it came from.
+
+    ``backbone`` and ``weights`` are values that :class:`~deformsim.config.TrainConfig` admits.
+    """
     if weights == "none":
         return None, f"{backbone}: random initialisation (weights: none)"
     if weights == "imagenet":
@@ -178,7 +175,6 @@ def convert_oxford_onnx(path: Path) -> dict:
     """
     import onnx
     from onnx import helper, numpy_helper
-    from deformsim.learn.models import backbone_features
 
     graph = onnx.load(str(path)).graph
     inits = {t.name: t for t in graph.initializer}
@@ -188,7 +184,8 @@ def convert_oxford_onnx(path: Path) -> dict:
     if first.op_type != "Transpose" or first_attrs.get("perm") != [0, 3, 1, 2] or convs[0][0].input[0] != first.output[0]:
         raise UserError(f"{path}: expected an NHWC input transposed into the first convolution")
     for n, a in convs:
-        if a.get("pads") != [1, 1, 1, 1] or a.get("strides") != [1, 1] or a.get("group", 1) != 1 or a.get("dilations", [1, 1]) != [1, 1]:
+        same = a.get("pads") == [1, 1, 1, 1] and a.get("strides") == [1, 1] and a.get("group", 1) == 1
+        if not same or a.get("dilations", [1, 1]) != [1, 1]:
             raise UserError(f"{path}: convolution {n.name} is not a 3x3/1 'same' convolution ({a})")
     for n, a in attrs:
         if n.op_type == "MaxPool" and (a.get("kernel_shape") != [2, 2] or a.get("strides") != [2, 2] or any(a.get("pads", [0]))):

@@ -9,7 +9,8 @@ from __future__ import annotations
 from html import escape
 from pathlib import Path
 
-from deformsim.atomic import write_json, write_text
+from deformsim.atomic import write_text
+from deformsim.dataset.images import CLASSES
 from deformsim.report.figures import curves_png, data_uri, png_file_uri, thumbnail_uri
 
 KEYS = (("accuracy", "Acc"), ("f1", "F1"), ("precision", "Prec."), ("recall", "Recall"))
@@ -139,7 +140,6 @@ def _table2(metrics: dict) -> str:
 
 
 def _confusion(title: str, cm: list[list[int]]) -> str:
-    names = ("intact", "deformed")
     body = []
     for i, row in enumerate(cm):
         total = sum(row) or 1
@@ -148,10 +148,11 @@ def _confusion(title: str, cm: list[list[int]]) -> str:
             frac = n / total
             hue = 145 if i == j else 4
             tds.append(f'<td style="background:hsl({hue},55%,{96 - 40 * frac:.0f}%)" '
-                       f'title="{n} of {sum(row)} true {names[i]}">{n}</td>')
-        body.append(f"<tr><th>true {names[i]}</th>{''.join(tds)}</tr>")
+                       f'title="{n} of {sum(row)} true {CLASSES[i]}">{n}</td>')
+        body.append(f"<tr><th>true {CLASSES[i]}</th>{''.join(tds)}</tr>")
+    pred = "".join(f"<th>pred. {c}</th>" for c in CLASSES)
     return (f'<div class="cm"><div class="title">{escape(title)}</div><table>'
-            f"<tr><th></th><th>pred. intact</th><th>pred. deformed</th></tr>{''.join(body)}</table></div>")
+            f"<tr><th></th>{pred}</tr>{''.join(body)}</table></div>")
 
 
 def _thumb(path: str, caption: str, cls: str = "") -> str:
@@ -176,7 +177,7 @@ def _predictions(metrics: dict) -> str:
     def grid(items, cls):
         if not items:
             return '<p class="note">none</p>'
-        cells = [_thumb(p["path"], f'{"deformed" if p["y"] else "intact"}<br>P(deformed) = {p["prob"]:.2f}', cls)
+        cells = [_thumb(p["path"], f'{CLASSES[p["y"]]}<br>P(deformed) = {p["prob"]:.2f}', cls)
                  for p in items[:MAX_THUMBS]]
         more = f'<p class="note">… and {len(items) - MAX_THUMBS} more</p>' if len(items) > MAX_THUMBS else ""
         return f'<div class="grid">{"".join(cells)}</div>{more}'
@@ -221,7 +222,7 @@ def render_html(metrics: dict, out_dir: Path) -> str:
                          for v, part, r in _results(metrics)})
     samples = "".join(
         f"<h3>{escape(v)}</h3><div class=grid>"
-        + "".join(_thumb(x["path"], "deformed" if x["y"] else "intact") for x in e.get("examples", []))
+        + "".join(_thumb(x["path"], CLASSES[x["y"]]) for x in e.get("examples", []))
         + "</div>"
         for v, e in metrics["variants"].items()
     )
@@ -251,10 +252,8 @@ def render_html(metrics: dict, out_dir: Path) -> str:
 
 
 def write_report(metrics: dict, out_dir: str | Path) -> Path:
-    """Write ``out_dir/report.html`` and ``out_dir/metrics.json``; return the HTML path."""
+    """Write ``out_dir/report.html`` (``metrics.json`` is run_experiments' to write); return its path."""
     out_dir = Path(out_dir)
-    html = render_html(metrics, out_dir)
-    write_json(out_dir / "metrics.json", metrics)
     path = out_dir / "report.html"
-    write_text(path, html)
+    write_text(path, render_html(metrics, out_dir))
     return path

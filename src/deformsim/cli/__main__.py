@@ -1,0 +1,5 @@
+"""``python -m deformsim.cli``."""
+
+from deformsim.cli.app import app
+
+app()

@@ -1,0 +1,66 @@
+"""`deformsim bench sim2real`: real-photo metrics as mean and standard deviation over seeds."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from deformsim.cli.common import console, fail_cleanly
+from deformsim.errors import UserError
+
+QUICK = {"generate.n": 320}
+
+
+def parse_sets(items: list[str]) -> dict:
+    """``["train.epochs=5", ...]`` as dotted overrides; values are read as YAML scalars or lists."""
+    import yaml
+
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise UserError(f"--set {item!r}: expected KEY=VALUE, e.g. train.epochs=5")
+        try:
+            out[key.strip()] = yaml.safe_load(value)
+        except yaml.YAMLError:
+            raise UserError(f"--set {item!r}: the value is not valid YAML") from None
+    return out
+
+
+def register(app: typer.Typer) -> None:
+    bench_app = typer.Typer(no_args_is_help=True, help="Benchmarks that measure what the product is for.")
+    app.add_typer(bench_app, name="bench")
+
+    @bench_app.command("sim2real")
+    @fail_cleanly
+    def sim2real(
+        real: Path = typer.Option(..., "--real", help="labelled real photos (intact/ and deformed/), for scoring only"),
+        backgrounds: Optional[Path] = typer.Option(None, "--backgrounds", help="background photos for compositing"),
+        out: Path = typer.Option(Path("runs/sim2real"), "--out", "-o", help="benchmark folder (datasets are reused)"),
+        config: str = typer.Option("quick", "--config", "-c", help="YAML config file or preset name"),
+        quick: bool = typer.Option(False, "--quick", help="320 images, 2 background draws, 2 training seeds"),
+        data_seeds: int = typer.Option(1, help="datasets with different generate seeds"),
+        composite_seeds: Optional[int] = typer.Option(None, help="background draws per dataset (default 3)"),
+        train_seeds: Optional[int] = typer.Option(None, help="training seeds per draw (default 3)"),
+        variants: str = typer.Option("black,backgrounds", help="comma-separated variants to train on"),
+        adapt: Optional[Path] = typer.Option(None, "--adapt", help="unlabelled real photos to adapt to (labels never read)"),
+        set_: list[str] = typer.Option([], "--set", help="config override KEY=VALUE (repeatable), e.g. train.epochs=5"),
+        progress: bool = typer.Option(True, "--progress/--no-progress"),
+    ) -> None:
+        """Train on synthetic images with several seeds; print real-photo metrics as mean ± std."""
+        from deformsim.config import load_config
+        from deformsim.evaluate.benchmark import Plan, format_table, run_benchmark
+
+        overrides = {**(QUICK if quick else {}), **parse_sets(set_)}
+        if backgrounds is not None:
+            overrides["composite.backgrounds"] = str(backgrounds)
+        cfg = load_config(config, overrides)
+        plan = Plan(data_seeds=data_seeds,
+                    composite_seeds=composite_seeds or (2 if quick else 3),
+                    train_seeds=train_seeds or (2 if quick else 3),
+                    variants=tuple(v.strip() for v in variants.split(",") if v.strip()))
+        results = run_benchmark(cfg, out, real, plan, adapt=adapt, progress=progress)
+        console.print(format_table(results["variants"], results["majority_baseline"]))
+        console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'results.json'}")

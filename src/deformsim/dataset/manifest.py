@@ -1,0 +1,106 @@
+"""The manifest: one row per image with every sampled parameter, file paths and timing.
+
+Rows are built from a sample's parameters (pure), kept per sample in ``samples/NNNNNN.json`` while a run
+goes, and consolidated into ``manifest.parquet`` (and a CSV for people) sorted by image id, so the result
+does not depend on the order or the worker in which samples finished.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from deformsim.atomic import atomic_path, write_json
+from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
+from deformsim.errors import UserError
+from deformsim.sampling import SampleParams
+
+# Columns that measure the run rather than describe the data: excluded when comparing manifests.
+VOLATILE_COLUMNS = ("render_seconds",)
+
+
+def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camera_scale: float = 1.0) -> list[dict]:
+    """The manifest rows of one sample, one per camera."""
+    rows = []
+    for c, cam in enumerate(p.cameras):
+        iid = image_id(p.index, c)
+        row = {
+            "id": iid,
+            "sample": p.index,
+            "camera": c,
+            "label": p.label,
+            "y": int(p.deformed),
+            "seed": p.seed,
+            "families": ",".join(p.families),
+            "extent": p.extent,
+            **{f"key_{k}": v for k, v in p.keys.items()},
+            **{f"disp_{k}": v for k, v in p.displacement.items()},
+            "seal": p.seal,
+            "tab": p.tab,
+            "pose_tilt": p.pose_tilt,
+            "pose_axis": p.pose_axis,
+            "hdri": p.hdri,
+            "hdri_rotation": p.hdri_rotation,
+            "hdri_strength": p.hdri_strength,
+            "cam_azimuth": cam.azimuth,
+            "cam_polar": cam.polar,
+            "cam_radius": cam.radius,
+            "camera_scale": camera_scale,
+            "design": json.dumps(p.design.__dict__ if p.design else None, sort_keys=True),
+            "material": json.dumps(p.material.__dict__ if p.material else None, sort_keys=True),
+            **{kind: layout.rel(layout.image(kind, iid)) for kind in RENDER_KINDS},
+            "render_seconds": render_seconds[c],
+        }
+        rows.append(row)
+    return rows
+
+
+def write_record(layout: Layout, p: SampleParams, rows: list[dict]) -> None:
+    write_json(layout.sample_record(p.index), {"params": p.to_dict(), "rows": rows})
+
+
+def read_record(layout: Layout, index: int) -> dict | None:
+    """A finished sample's record, or None when it is missing, unreadable or its images are gone."""
+    path = layout.sample_record(index)
+    try:
+        rec = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    for row in rec.get("rows", []):
+        if not all((layout.root / row[k]).is_file() for k in RENDER_KINDS):
+            return None
+    return rec
+
+
+def consolidate(layout: Layout, indices: list[int]) -> pd.DataFrame:
+    """Merge the records of ``indices`` into manifest.parquet and manifest.csv (atomically)."""
+    rows = []
+    for i in indices:
+        rec = read_record(layout, i)
+        if rec is None:
+            raise RuntimeError(f"sample {i} has no complete record")
+        rows.extend(rec["rows"])
+    df = pd.DataFrame(rows).sort_values("id").reset_index(drop=True)
+    with atomic_path(layout.manifest) as tmp:
+        df.to_parquet(tmp, index=False)
+    with atomic_path(layout.manifest_csv) as tmp:
+        df.to_csv(tmp, index=False)
+    return df
+
+
+def read_manifest(root: str | Path) -> pd.DataFrame:
+    """Load a dataset's manifest; a clear error when the folder is not a generated dataset."""
+    layout = Layout(Path(root))
+    if not layout.manifest.is_file():
+        raise UserError(f"{root} is not a generated dataset: {layout.manifest.name} is missing (run deformsim generate)")
+    try:
+        return pd.read_parquet(layout.manifest)
+    except Exception as exc:  # pyarrow raises several types for corrupt files
+        raise UserError(f"manifest {layout.manifest} is unreadable: {exc}") from None
+
+
+def stable_view(df: pd.DataFrame) -> pd.DataFrame:
+    """The manifest without run-time measurements: equal for equal seeds and settings."""
+    return df.drop(columns=[c for c in VOLATILE_COLUMNS if c in df.columns])

@@ -1,0 +1,171 @@
+"""The sim-to-real benchmark: real-photo metrics as mean and standard deviation over seeds.
+
+One run trains on synthetic images only and is tested twice: on the synthetic images held out of its
+training (grouped by scene) and on a folder of labelled real photos. Runs differ in the dataset's
+generate seed (``data_seeds``), in which background photo lands behind which render (``composite_seeds``)
+and in the training seed (``train_seeds``); the rendered ``black`` variant has no background draw. The real
+labels are read only to score predictions: training, its validation split and the 0.5 threshold never see
+them. Unlabelled photos given as ``adapt`` may adapt the model (their folder structure is never read).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from deformsim.atomic import write_json
+from deformsim.config import Config
+from deformsim.errors import UserError
+from deformsim.log import get_logger
+
+log = get_logger(__name__)
+
+REAL_METRICS = ("accuracy", "f1", "precision", "recall")
+RENDERED = ("black", "green")  # variants without a background draw
+
+
+@dataclass(frozen=True)
+class Plan:
+    """How many draws of each random source the benchmark averages over."""
+
+    data_seeds: int = 1
+    composite_seeds: int = 3
+    train_seeds: int = 3
+    variants: tuple[str, ...] = ("black", "backgrounds")
+
+    def __post_init__(self) -> None:
+        for name in ("data_seeds", "composite_seeds", "train_seeds"):
+            if getattr(self, name) < 1:
+                raise UserError(f"benchmark {name} must be at least 1, got {getattr(self, name)}")
+        if not self.variants:
+            raise UserError("benchmark needs at least one variant")
+
+
+def _stats(values: list[float]) -> tuple[float, float]:
+    """Mean and sample standard deviation (ddof=1; 0 for a single value)."""
+    a = np.asarray(values, dtype=float)
+    return float(a.mean()), float(a.std(ddof=1)) if len(a) > 1 else 0.0
+
+
+def aggregate(runs: list[dict]) -> dict[str, dict]:
+    """Per variant: ``n_runs`` and ``<metric>_mean`` / ``<metric>_std`` of the real metrics and of
+    ``synthetic_accuracy`` / ``synthetic_f1`` over its runs."""
+    out: dict[str, dict] = {}
+    for variant in dict.fromkeys(r["variant"] for r in runs):
+        mine = [r for r in runs if r["variant"] == variant]
+        row: dict = {"n_runs": len(mine)}
+        for k in REAL_METRICS:
+            row[f"{k}_mean"], row[f"{k}_std"] = _stats([r["real"][k] for r in mine])
+        for k in ("accuracy", "f1"):
+            row[f"synthetic_{k}_mean"], row[f"synthetic_{k}_std"] = _stats([r["synthetic"][k] for r in mine])
+        out[variant] = row
+    return out
+
+
+def format_table(summary: dict[str, dict], baseline: float) -> str:
+    """The results as a Markdown table (mean +- std), for the terminal and README.md."""
+    head = "| trained on | runs | real accuracy | real F1 | precision | recall | synthetic accuracy |"
+    lines = [head, "|---|---|---|---|---|---|---|"]
+    for variant, r in summary.items():
+        cells = [f"{r[f'{k}_mean']:.3f} ± {r[f'{k}_std']:.3f}" for k in (*REAL_METRICS, "synthetic_accuracy")]
+        lines.append(f"| {variant} | {r['n_runs']} | " + " | ".join(cells) + " |")
+    lines.append(f"\nmajority-class baseline on the real photos: accuracy {baseline:.3f}")
+    return "\n".join(lines)
+
+
+def _draws(variant: str, plan: Plan) -> range:
+    return range(1) if variant in RENDERED else range(plan.composite_seeds)
+
+
+def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt: Path | None = None,
+                  progress: bool = True) -> dict:
+    """Generate (or reuse), composite, train and test every run of ``plan``; write ``out/results.json``."""
+    from deformsim.composite.stage import composite
+    from deformsim.dataset.real import real_table
+    from deformsim.dataset.variants import variant_table
+    from deformsim.evaluate.experiments import grouped_split
+    from deformsim.evaluate.metrics import compute_metrics
+    from deformsim.generate.stage import data_settings, generate, prepare
+    from deformsim.learn.predict import load
+    from deformsim.learn.train import fit
+    from deformsim.pipeline import digest
+
+    t_start = time.perf_counter()
+    out = Path(out)
+    real_df = real_table(real)
+    photo_variants = [v for v in plan.variants if v not in RENDERED]
+    if photo_variants and cfg.composite.backgrounds is None and "procedural" not in photo_variants:
+        raise UserError(f"variants {', '.join(photo_variants)} need composite.backgrounds (a photo folder)")
+    datasets = []
+    for d in range(plan.data_seeds):
+        cfg_d = cfg.model_copy(deep=True)
+        cfg_d.generate.seed = cfg.generate.seed + d
+        folder = out / f"data-{digest(data_settings(cfg_d))}"
+        prepare(cfg_d, folder)  # every input check before any work
+        datasets.append((cfg_d, folder))
+
+    runs: list[dict] = []
+    total = sum(len(_draws(v, plan)) for v in plan.variants) * plan.data_seeds * plan.train_seeds
+    for cfg_d, folder in datasets:
+        log.info("dataset seed %d: %s", cfg_d.generate.seed, folder)
+        generate(cfg_d, folder, progress=progress)
+        for variant in plan.variants:
+            for c in _draws(variant, plan):
+                name = variant
+                if variant not in RENDERED:
+                    name = f"{variant}-seed{c}"
+                    comp = cfg.composite if variant != "procedural" else cfg.composite.model_copy(update={"backgrounds": None})
+                    _composite_once(composite, folder, comp, name, c, progress)
+                table = variant_table(folder, name)
+                for k in range(plan.train_seeds):
+                    train_cfg = cfg.train.model_copy(update={"seed": cfg.train.seed + k})
+                    log.info("run %d/%d: %s, data seed %d, background seed %s, train seed %d",
+                             len(runs) + 1, total, variant, cfg_d.generate.seed, c if variant not in RENDERED else "-",
+                             train_cfg.seed)
+                    train_df, test_df = grouped_split(table, train_cfg.split, train_cfg.seed)
+                    model_dir = out / "models" / f"{folder.name}-{name}-train{train_cfg.seed}"
+                    fit(train_df, train_cfg, model_dir, progress=progress, adapt=adapt)
+                    predictor = load(model_dir)
+                    synth = compute_metrics(test_df["y"].to_numpy(), predictor.predict_proba(list(test_df["path"])),
+                                            train_cfg.threshold)
+                    prob = predictor.predict_proba(list(real_df["path"]))
+                    real_m = compute_metrics(real_df["y"].to_numpy(), prob, train_cfg.threshold)
+                    runs.append({
+                        "variant": variant, "data_seed": cfg_d.generate.seed,
+                        "composite_seed": c if variant not in RENDERED else None, "train_seed": train_cfg.seed,
+                        "model": str(model_dir),
+                        "real": {k: real_m[k] for k in REAL_METRICS} | {"confusion": real_m["confusion"]["matrix"]},
+                        "synthetic": {k: synth[k] for k in ("accuracy", "f1")},
+                        "real_predictions": [float(p) for p in prob],
+                    })
+    share = float(real_df["y"].mean())
+    results = {
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "real_dir": str(Path(real).resolve()),
+        "real_images": len(real_df),
+        "real_paths": list(real_df["path"]),
+        "majority_baseline": max(share, 1 - share),
+        "plan": {"data_seeds": plan.data_seeds, "composite_seeds": plan.composite_seeds,
+                 "train_seeds": plan.train_seeds, "variants": list(plan.variants)},
+        "adapt": str(adapt) if adapt is not None else None,
+        "settings": cfg.model_dump(mode="json"),
+        "variants": aggregate(runs),
+        "runs": runs,
+        "seconds": time.perf_counter() - t_start,
+    }
+    write_json(out / "results.json", results)
+    return results
+
+
+def _composite_once(composite, folder: Path, comp, name: str, seed: int, progress: bool) -> None:
+    """Composite the variant unless it exists with the same settings (its images keep their cached features)."""
+    stamp = folder / "variants" / name / "composite.json"
+    want = {"name": name, "seed": seed, **comp.model_dump(mode="json")}
+    if stamp.is_file() and json.loads(stamp.read_text()) == want:
+        return
+    composite(folder, comp, name, seed, progress=progress)

@@ -1,0 +1,113 @@
+"""Render on this machine: a pool of threads, each driving one Blender worker process."""
+
+from __future__ import annotations
+
+import queue
+import threading
+
+from deformsim.config import Config
+from deformsim.dataset.layout import Layout
+from deformsim.generate.backend import Retries, finish_sample, remove_partial_files, render_workers, worker_setup
+from deformsim.generate.worker_client import WorkerCrashed, WorkerProcess
+from deformsim.log import get_logger, progress_bar
+from deformsim.parallel import cores_per_worker
+from deformsim.sampling import SampleParams
+
+log = get_logger(__name__)
+
+
+def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], progress: bool) -> tuple[dict[int, str], str]:
+    """Render ``params`` with local worker processes; returns (failed samples with reasons, device)."""
+    n_workers = render_workers(cfg, len(params))
+    threads = cfg.render.threads or cores_per_worker(n_workers)
+    views = len(cfg.camera.azimuth_quadrants)
+    tasks: queue.Queue = queue.Queue()
+    for i in sorted(params):
+        tasks.put(i)
+    retries = Retries(cfg.generate.max_retries)
+    stop = threading.Event()
+    lock = threading.Lock()
+    remaining = [len(params)]
+    device = [""]
+    errors: list[str] = []
+    live: dict[int, object] = {}  # worker slot -> running WorkerProcess, killed on Ctrl-C
+    logs = layout.root / "logs"
+    logs.mkdir(exist_ok=True)
+    bar = progress_bar(total=len(params) * views, desc="render", enabled=progress)
+
+    def retry_or_fail(i: int, reason: str) -> None:
+        with lock:
+            if retries.retry(i, reason):
+                tasks.put(i)
+            else:
+                remaining[0] -= 1
+
+    def run_worker(w: int) -> None:
+        proc = None
+        rendered = 0
+        try:
+            while not stop.is_set():
+                with lock:
+                    if remaining[0] <= 0:
+                        return
+                try:
+                    i = tasks.get(timeout=0.2)
+                except queue.Empty:
+                    continue
+                if proc is None or rendered >= cfg.generate.recycle_every:
+                    if proc is not None:
+                        proc.close()
+                    proc = WorkerProcess(log_path=logs / f"worker{w}.log", threads=threads)
+                    live[w] = proc
+                    ready = proc.start(worker_setup(cfg, layout))
+                    device[0] = ready.get("device", "")
+                    camera_scale = float(ready.get("camera_scale", 1.0))
+                    rendered = 0
+                try:
+                    reply = proc.render(params[i].to_dict())
+                except WorkerCrashed as exc:
+                    proc = None
+                    if not stop.is_set():  # else we killed it ourselves (Ctrl-C)
+                        retry_or_fail(i, f"worker crashed ({exc})")
+                    continue
+                if "error" in reply:
+                    retry_or_fail(i, reply.get("message", "render error"))
+                    continue
+                finish_sample(layout, params[i], reply["render_seconds"], camera_scale)
+                rendered += views
+                with lock:
+                    remaining[0] -= 1
+                bar.update(views)
+        except WorkerCrashed as exc:  # crashed while starting: a setup problem, not a sample's
+            stop.set()
+            errors.append(f"worker failed to start: {exc}")
+        except Exception as exc:  # pragma: no cover - surfaced to the caller below
+            stop.set()
+            errors.append(repr(exc))
+        finally:
+            if proc is not None:
+                proc.kill() if stop.is_set() else proc.close()
+
+    pool = [threading.Thread(target=run_worker, args=(w,), daemon=True) for w in range(n_workers)]
+    log.info("rendering with %d worker(s), %d Cycles thread(s) each", n_workers, threads)
+    try:
+        for t in pool:
+            t.start()
+        for t in pool:
+            while t.is_alive():
+                t.join(timeout=0.5)
+    except KeyboardInterrupt:
+        stop.set()
+        for proc in list(live.values()):
+            proc.kill()
+        for t in pool:
+            t.join(timeout=10)
+        bar.close()
+        remove_partial_files(layout)
+        raise
+    bar.close()
+    if errors:
+        raise RuntimeError(errors[0] + f" (see {logs})")
+    if device[0]:
+        log.info("Cycles device: %s", device[0])
+    return retries.failed, device[0]

@@ -1,0 +1,133 @@
+"""Render on a Ray cluster: the same Blender workers, each driven by a Ray actor on some node.
+
+Actors write into the shared output folder, or, with ``generate.gather``, render into a node-local folder
+and return the image bytes, which the driver writes. The driver alone writes sample records, so resume,
+retries and the manifest work as with the local backend. Install with ``pip install deformsim[ray]``.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from deformsim.atomic import write_bytes
+from deformsim.config import Config
+from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
+from deformsim.errors import UserError
+from deformsim.generate.backend import Retries, finish_sample, worker_setup
+from deformsim.log import get_logger, progress_bar
+from deformsim.parallel import cores_per_worker, worker_count
+from deformsim.sampling import SampleParams
+
+log = get_logger(__name__)
+
+
+class RenderActor:
+    """Holds one Blender worker process on its node; restarts it every ``recycle_every`` images."""
+
+    def __init__(self, setup: dict, recycle_every: int, threads: int, gather: bool):
+        self.setup, self.recycle_every, self.threads, self.gather = setup, recycle_every, threads, gather
+        self.local = Path(tempfile.mkdtemp(prefix="deformsim-ray-")) if gather else None
+        self.worker, self.rendered, self.ready = None, 0, {}
+
+    def _ensure(self) -> None:
+        from deformsim.generate.worker_client import WorkerProcess
+
+        if self.worker is not None and self.rendered < self.recycle_every:
+            return
+        if self.worker is not None:
+            self.worker.close()
+        out = str(self.local) if self.gather else self.setup["out"]
+        log_path = Path(out) / "logs" / f"ray-worker-{os.getpid()}.log"
+        self.worker = WorkerProcess(log_path=log_path, threads=self.threads)
+        self.ready = self.worker.start({**self.setup, "out": out})
+        self.rendered = 0
+
+    def render(self, params: dict) -> dict:
+        from deformsim.generate.worker_client import WorkerCrashed
+
+        try:
+            self._ensure()
+            reply = self.worker.render(params)
+        except WorkerCrashed as exc:
+            self.worker = None
+            return {"error": params["index"], "message": f"worker crashed ({exc})"}
+        self.rendered += len(params["cameras"])
+        reply["camera_scale"] = self.ready.get("camera_scale", 1.0)
+        reply["device"] = self.ready.get("device", "")
+        if self.gather and "done" in reply:
+            layout = Layout(self.local)
+            files = {}
+            for c in range(len(params["cameras"])):
+                for kind in RENDER_KINDS:
+                    path = layout.image(kind, image_id(params["index"], c))
+                    files[layout.rel(path)] = path.read_bytes()
+                    path.unlink()
+            reply["files"] = files
+        return reply
+
+    def close(self) -> None:
+        if self.worker is not None:
+            self.worker.close()
+        if self.local is not None:
+            shutil.rmtree(self.local, ignore_errors=True)
+
+
+def run_ray(cfg: Config, layout: Layout, params: dict[int, SampleParams], progress: bool) -> tuple[dict[int, str], str]:
+    """Render ``params`` on Ray actors; returns (failed samples with reasons, device)."""
+    try:
+        import ray
+    except ImportError:
+        raise UserError("the ray backend needs Ray: pip install 'deformsim[ray]'") from None
+    from ray.exceptions import RayActorError
+
+    started_here = not ray.is_initialized()
+    if started_here:
+        ray.init(address=cfg.generate.address, include_dashboard=False, log_to_driver=False)
+    try:
+        cpus = int(ray.cluster_resources().get("CPU", 1))
+        n_actors = worker_count(len(params), cfg.generate.workers, cores=cpus, cores_each=2)
+        cpus_per = 1 if cfg.generate.workers else cores_per_worker(n_actors, cpus)
+        actor_cls = ray.remote(num_cpus=cpus_per, max_restarts=0)(RenderActor)
+        setup = worker_setup(cfg, layout)
+        threads = cfg.render.threads or cpus_per
+
+        def new_actor():
+            return actor_cls.remote(setup, cfg.generate.recycle_every, threads, cfg.generate.gather)
+
+        views = len(cfg.camera.azimuth_quadrants)
+        todo = sorted(params)
+        retries = Retries(cfg.generate.max_retries)
+        device = ""
+        running: dict = {}  # future -> (actor, index)
+        idle = [new_actor() for _ in range(n_actors)]
+        log.info("rendering on Ray: %d actor(s), %d CPU(s) each", n_actors, cpus_per)
+        with progress_bar(len(params) * views, "render (ray)", progress) as bar:
+            while todo or running:
+                while todo and idle:
+                    actor, i = idle.pop(), todo.pop(0)
+                    running[actor.render.remote(params[i].to_dict())] = (actor, i)
+                ready, _ = ray.wait(list(running), num_returns=1)
+                actor, i = running.pop(ready[0])
+                try:
+                    reply = ray.get(ready[0])
+                except RayActorError as exc:
+                    reply = {"error": i, "message": f"actor died: {exc}"}
+                    actor = new_actor()
+                idle.append(actor)
+                if "error" in reply:
+                    if retries.retry(i, reply["message"]):
+                        todo.append(i)
+                    continue
+                for rel, data in reply.get("files", {}).items():
+                    write_bytes(layout.root / rel, data)
+                finish_sample(layout, params[i], reply["render_seconds"], reply["camera_scale"])
+                device = reply.get("device", device)
+                bar.update(views)
+        ray.get([a.close.remote() for a in idle])
+        return retries.failed, device
+    finally:
+        if started_here:
+            ray.shutdown()

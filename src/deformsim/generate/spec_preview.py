@@ -1,0 +1,65 @@
+"""Render every key of a spec at full weight from one fixed camera, as one labelled contact sheet."""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+from pathlib import Path
+
+from PIL import Image
+
+from deformsim.atomic import atomic_path
+from deformsim.config import load_config
+from deformsim.dataset.contact_sheet import grid
+from deformsim.dataset.layout import Layout, image_id
+from deformsim.generate.backend import worker_setup
+from deformsim.generate.stage import prepare
+from deformsim.sampling import SampleParams, sample_params
+
+FIXED_VIEW = {"camera.azimuth_quadrants": [[40, 40]], "pose.tilt": [0, 0], "camera.polar": [62, 62],
+              "camera.radius": [0.36, 0.36], "lighting.rotation": [90, 90], "lighting.strength": [1.0, 1.0]}
+
+
+def preview_states(base: SampleParams, openings: bool) -> list[tuple[str, SampleParams]]:
+    """The rest shape, then each lattice key, each displacement texture and each opening at full weight."""
+    zero_k = {k: 0.0 for k in base.keys}
+    zero_d = {k: 0.0 for k in base.displacement}
+    rest = dataclasses.replace(base, label="intact", keys=zero_k, displacement=zero_d, seal=0.0, tab=0.0)
+    states = [("rest", rest)]
+    states += [(k, dataclasses.replace(rest, label="deformed", keys={**zero_k, k: 1.0})) for k in base.keys]
+    states += [(d, dataclasses.replace(rest, label="deformed", displacement={**zero_d, d: 1.0})) for d in base.displacement]
+    if openings:
+        states += [("seal open", dataclasses.replace(rest, seal=1.0)),
+                   ("tab + seal open", dataclasses.replace(rest, seal=1.0, tab=1.0))]
+    return [(name, dataclasses.replace(p, index=i)) for i, (name, p) in enumerate(states)]
+
+
+def render_preview(spec_path: Path | None, mesh: Path | None, out: Path, resolution: int, samples: int) -> Path:
+    from deformsim.generate.worker_client import WorkerProcess
+
+    overrides = {**FIXED_VIEW, "object.spec": spec_path, "object.mesh": mesh, "generate.n": 1,
+                 "render.resolution": resolution, "render.samples": samples}
+    cfg = load_config("quick", overrides)
+    with tempfile.TemporaryDirectory(prefix="deformsim-preview-") as tmp:
+        spec, hdris = prepare(cfg, Path(tmp))
+        hdri = "studio" if "studio" in hdris else hdris[0]
+        base = dataclasses.replace(sample_params(0, 0, cfg, spec, hdris), hdri=hdri)
+        states = preview_states(base, openings=bool(spec.openings.seal))
+        layout = Layout(Path(tmp))
+        worker = WorkerProcess(log_path=Path(tmp) / "worker.log")
+        try:
+            worker.start(worker_setup(cfg, layout))
+            images, captions = [], []
+            for name, p in states:
+                reply = worker.render(p.to_dict())
+                if "error" in reply:
+                    raise RuntimeError(f"rendering '{name}' failed: {reply['message']}")
+                img = Image.open(layout.image("black", image_id(p.index, 0)))
+                images.append(img.copy())
+                captions.append((name, (60, 60, 60) if name == "rest" else (207, 34, 46)))
+        finally:
+            worker.close()
+    sheet = grid(images, captions, tile=resolution, cols=5)
+    with atomic_path(out) as t:
+        sheet.save(t, format="PNG")
+    return out

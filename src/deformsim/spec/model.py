@@ -1,0 +1,255 @@
+"""The deformation spec: an expert's description of how a part can deform, loaded from YAML.
+
+A spec names deformation *families* (crush, pinch, ...), each a list of *keys*; each key is a list of
+parametric lattice operations (see :mod:`deformsim.spec.lattice_ops`). It also declares surface crinkle
+(displacement textures limited to a vertex-selection rule), opening keys, materials and mesh units.
+Validation happens here, before any rendering, with one-line errors naming the problem.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from pydantic import ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from deformsim.errors import UserError
+from deformsim.schema import Range, StrictModel, check_range, read_mapping
+from deformsim.spec.lattice_ops import OPERATIONS
+
+BUILTIN_SPEC = Path(__file__).parent / "builtin" / "can.yaml"
+MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".gltf", ".fbx")
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
+
+class Operation(StrictModel):
+    """One lattice-point operation: ``op`` names a function of :data:`rig_ops.OPERATIONS`."""
+
+    model_config = ConfigDict(extra="allow")
+    op: str
+
+    @model_validator(mode="after")
+    def _known(self) -> "Operation":
+        if self.op not in OPERATIONS:
+            raise ValueError(f"unknown operation '{self.op}' (known: {', '.join(sorted(OPERATIONS))})")
+        fn = OPERATIONS[self.op]
+        try:
+            fn.check(self.params)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"operation '{self.op}': {exc}") from None
+        return self
+
+    @property
+    def params(self) -> dict:
+        return dict(self.model_extra or {})
+
+
+class Key(StrictModel):
+    """A lattice shape key: the operations applied, in order, to the rest lattice at full weight."""
+
+    name: str
+    ops: list[Operation]
+
+    @field_validator("ops")
+    @classmethod
+    def _nonempty(cls, v: list[Operation]) -> list[Operation]:
+        if not v:
+            raise ValueError("key has no operations")
+        return v
+
+
+class Family(StrictModel):
+    name: str
+    keys: list[Key]
+
+    @field_validator("keys")
+    @classmethod
+    def _nonempty(cls, v: list[Key]) -> list[Key]:
+        if not v:
+            raise ValueError("family has no keys")
+        return v
+
+
+class SelectionRule(StrictModel):
+    """Which vertices displacement may move; every given criterion must hold.
+
+    ``group``: an existing vertex group (the built-in can makes ``side_wall``); ``max_normal_angle``: the
+    vertex normal is within this many degrees of horizontal; ``height_band``: the vertex height as a
+    fraction of the object's height lies inside this band.
+    """
+
+    group: str | None = None
+    max_normal_angle: float | None = Field(None, gt=0, le=90)
+    height_band: Range | None = None
+
+    @field_validator("height_band")
+    @classmethod
+    def _band(cls, v: Range | None) -> Range | None:
+        if v is not None:
+            check_range(v, 0, name="height_band")
+            if v[1] > 1:
+                raise ValueError(f"height_band {list(v)} must lie inside [0, 1]")
+        return v
+
+    @model_validator(mode="after")
+    def _some(self) -> "SelectionRule":
+        if self.group is None and self.max_normal_angle is None and self.height_band is None:
+            raise ValueError("vertex rule selects nothing: give group, max_normal_angle or height_band")
+        return self
+
+
+class Texture(StrictModel):
+    """A hard Stucci displacement texture, applied as its own shape key."""
+
+    name: str
+    noise_scale: float = Field(0.01, gt=0, description="texture feature size, in object units (m)")
+    strength: float = Field(0.002, gt=0, description="displacement at full weight (m)")
+    turbulence: float = Field(5.0, ge=0)
+    stucci_type: Literal["PLASTIC", "WALL_IN", "WALL_OUT"] = "WALL_OUT"
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+class Displacement(StrictModel):
+    vertex_rule: SelectionRule
+    textures: list[Texture] = []
+
+
+class Openings(StrictModel):
+    """Opening shape keys on the mesh; the tab is never more open than the seal."""
+
+    seal: str | None = None
+    tab: str | None = None
+
+    @model_validator(mode="after")
+    def _tab_needs_seal(self) -> "Openings":
+        if self.tab and not self.seal:
+            raise ValueError("a tab key needs a seal key (the tab is never more open than the seal)")
+        return self
+
+
+class Material(StrictModel):
+    """Randomised surface for user meshes (the built-in can has its own label and aluminium)."""
+
+    kind: Literal["metal", "plastic", "painted"] = "metal"
+    color: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.6, 0.6, 0.62), (0.9, 0.9, 0.92))
+    roughness: Range = (0.2, 0.45)
+
+    @field_validator("color")
+    @classmethod
+    def _color(cls, v):
+        for lo, hi in zip(*v):
+            if not 0 <= lo <= hi <= 1:
+                raise ValueError(f"colour range {[list(c) for c in v]} must satisfy 0 <= min <= max <= 1")
+        return v
+
+    @field_validator("roughness")
+    @classmethod
+    def _rough(cls, v: Range) -> Range:
+        check_range(v, 0, name="roughness")
+        if v[1] > 1:
+            raise ValueError(f"roughness range {list(v)} goes above 1")
+        return v
+
+
+class Lattice(StrictModel):
+    points: tuple[int, int, int] = (6, 6, 8)
+    margin: float = Field(0.04, ge=0, le=1, description="fraction of the bounding box added on each side")
+
+    @field_validator("points")
+    @classmethod
+    def _points(cls, v):
+        if min(v) < 2 or max(v) > 64:
+            raise ValueError(f"lattice points {list(v)} must each be between 2 and 64")
+        return v
+
+
+class Spec(StrictModel):
+    """A whole deformation spec."""
+
+    name: str
+    builtin: Literal["can"] | None = Field(None, description="built-in object instead of a mesh file")
+    units: str = Field("m", description="length unit of the mesh file")
+    size: float | None = Field(None, gt=0, description="rescale so the largest dimension is this many metres")
+    up_axis: Literal["Z", "Y"] = "Z"
+    lattice: Lattice = Lattice()
+    families: list[Family]
+    displacement: Displacement | None = None
+    openings: Openings = Openings()
+    material: Material | None = None
+
+    @field_validator("units")
+    @classmethod
+    def _units(cls, v: str) -> str:
+        if v not in UNITS:
+            raise ValueError(f"unknown unit '{v}' (known: {', '.join(UNITS)})")
+        return v
+
+    @model_validator(mode="after")
+    def _unique(self) -> "Spec":
+        if not self.families:
+            raise ValueError("spec declares no deformation families")
+        names = [k.name for f in self.families for k in f.keys]
+        names += [t.name for t in (self.displacement.textures if self.displacement else [])]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f"duplicate key names: {', '.join(sorted(dup))}")
+        fams = [f.name for f in self.families]
+        if len(set(fams)) != len(fams):
+            raise ValueError("duplicate family names")
+        return self
+
+    @property
+    def key_names(self) -> list[str]:
+        return [k.name for f in self.families for k in f.keys]
+
+    @property
+    def texture_names(self) -> list[str]:
+        return [t.name for t in self.displacement.textures] if self.displacement else []
+
+    @property
+    def unit_scale(self) -> float:
+        return UNITS[self.units]
+
+
+def load_spec(path: str | Path | None = None) -> Spec:
+    """Load and validate a spec (default: the built-in can). Raises :class:`UserError` naming the problem."""
+    path = Path(path) if path else BUILTIN_SPEC
+    if not path.is_file():
+        raise UserError(f"spec file not found: {path}")
+    data = read_mapping(path, "spec")
+    try:
+        return Spec.model_validate(data)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        where = _where(data, err["loc"])
+        msg = err["msg"].removeprefix("Value error, ")
+        raise UserError(f"spec {path}: {where}: {msg}") from None
+
+
+def _where(data: dict, loc: tuple) -> str:
+    """Turn a pydantic location into words, naming families and keys rather than list indices."""
+    parts, node = [], data
+    for p in loc:
+        node = node[p] if isinstance(node, (dict, list)) and _has(node, p) else None
+        if isinstance(p, int) and isinstance(node, dict) and "name" in node:
+            parts[-1] = f"{parts[-1]} '{node['name']}'"
+        elif isinstance(p, int):
+            parts[-1] = f"{parts[-1]}[{p}]"
+        else:
+            parts.append(str(p))
+    return ".".join(parts) or "spec"
+
+
+def _has(node, p) -> bool:
+    return (isinstance(node, dict) and p in node) or (isinstance(node, list) and isinstance(p, int) and p < len(node))
+
+
+def check_mesh_file(path: str | Path) -> Path:
+    """Fail with one line unless ``path`` is an existing, non-empty file of a supported mesh format."""
+    path = Path(path)
+    if path.suffix.lower() not in MESH_SUFFIXES:
+        raise UserError(f"mesh {path}: unsupported format '{path.suffix}' (use {', '.join(MESH_SUFFIXES)})")
+    if not path.is_file():
+        raise UserError(f"mesh file not found: {path}")
+    if path.stat().st_size == 0:
+        raise UserError(f"mesh {path} is empty (0 bytes)")
+    return path
