@@ -134,3 +134,40 @@ def test_cli(dataset, tmp_path, backgrounds_dir):
     res = runner.invoke(app, ["composite", str(dataset), "--backgrounds", str(tmp_path / "nope")])
     assert res.exit_code == 2 and "background folder not found" in res.output
 
+
+
+def test_balanced_photos_use_each_photo_equally_behind_each_class():
+    from collections import Counter
+
+    from deformsim.composite.stage import balanced_photos
+
+    ids = [f"{i:06d}_c{c}" for i in range(50) for c in range(4)]
+    labels = [i % 2 for i in range(50) for _ in range(4)]
+    first = balanced_photos(ids, labels, 7, seed=3)
+    assert set(first) == set(ids)
+    for y in (0, 1):
+        counts = Counter(first[i] for i, label in zip(ids, labels) if label == y)
+        assert set(counts) == set(range(7)) and max(counts.values()) - min(counts.values()) <= 1
+    assert first == balanced_photos(list(reversed(ids)), list(reversed(labels)), 7, seed=3)  # order-free
+    assert first != balanced_photos(ids, labels, 7, seed=4)
+
+
+def test_framing_and_effects_are_seeded_recorded_and_fill_the_frame(dataset):
+    from deformsim.composite.framing import object_box
+    from deformsim.config import CameraEffects
+
+    cfg = CompositeConfig(matte="alpha", object_fill=(0.8, 0.8), fill_offset=0.0, effects=CameraEffects(), workers=1)
+    one = composite(dataset, cfg, "framed", seed=2, progress=False)
+    two = composite(dataset, cfg.model_copy(update={"workers": 2}), "framed2", seed=2, progress=False)
+    assert _snapshot(one / "images") == _snapshot(two / "images")
+    df = pd.read_parquet(one / "manifest.parquet")
+    assert {"frame_fill", "frame_side", "fx_exposure", "fx_noise", "fx_jpeg_quality"} <= set(df.columns)
+    plain = composite(dataset, CompositeConfig(matte="alpha", object_fill=(0.8, 0.8), fill_offset=0.0), "f3",
+                      seed=2, progress=False)
+    rgba = cv2.imread(str(dataset / "images" / "rgba" / "000000_c0.png"), cv2.IMREAD_UNCHANGED)
+    before = object_box(rgba[..., 3] / 255.0)
+    size = rgba.shape[0]
+    row = pd.read_parquet(plain / "manifest.parquet").iloc[0]
+    # the object's longer side now fills 80 % of the frame, unless the render could not be cropped that far
+    side = max(before[2] - before[0], before[3] - before[1])
+    assert row["frame_side"] == pytest.approx(min(side / 0.8, size), abs=1e-6)

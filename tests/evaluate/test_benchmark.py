@@ -40,3 +40,46 @@ def test_table_shows_every_variant_and_the_baseline():
 def test_bad_plans_fail_with_one_line(kwargs):
     with pytest.raises(UserError, match="benchmark"):
         Plan(**kwargs)
+
+
+@pytest.mark.blender
+@pytest.mark.torch
+def test_training_reads_nothing_under_the_real_folder(tmp_path, monkeypatch):
+    """The real photos' labels (their folders) are only read to score: training never opens or lists them."""
+    import sys
+
+    from PIL import Image
+
+    from deformsim.config import load_config
+    from deformsim.evaluate.benchmark import Plan, run_benchmark
+    from deformsim.learn import train
+
+    monkeypatch.setenv("DEFORMSIM_CACHE", str(tmp_path / "cache"))
+    real = tmp_path / "real"
+    for k, label in enumerate(["intact"] * 3 + ["deformed"] * 3):
+        (real / label).mkdir(parents=True, exist_ok=True)
+        Image.new("RGB", (40, 30), (40 * k, 90, 200 - 30 * k)).save(real / label / f"{k}.png")
+    cfg = load_config("quick", {"generate.n": 16, "render.resolution": 32, "render.samples": 1, "generate.seed": 4,
+                                "train.epochs": 1, "train.image_size": 32, "train.weights": "none"})
+    touched, training = [], [False]
+
+    def hook(event, args):
+        if training[0] and event in ("open", "os.listdir", "os.scandir") and args and str(args[0]).startswith(str(real)):
+            touched.append((event, str(args[0])))
+
+    sys.addaudithook(hook)
+    real_fit = train.fit
+
+    def watched_fit(*a, **k):
+        training[0] = True
+        try:
+            return real_fit(*a, **k)
+        finally:
+            training[0] = False
+
+    monkeypatch.setattr(train, "fit", watched_fit)
+    results = run_benchmark(cfg, tmp_path / "bench", real, Plan(composite_seeds=1, train_seeds=1, variants=("black",)),
+                            progress=False)
+    assert touched == []
+    assert results["variants"]["black"]["n_runs"] == 1 and results["real_images"] == 6
+    assert results["settings"]["train"]["threshold"] == 0.5

@@ -51,12 +51,9 @@ def setup(msg: dict):
     scn.reset()
     scene = bpy.context.scene
     if cfg.object.mesh is None:
-        from deformsim.blender import can, materials
+        from deformsim.blender import can
 
-        obj = can.build_can()
-        # Not a no-op: clearing the slots resets every face to slot 0 ("Label"), so the whole can renders
-        # with the label material. Kept because removing it changes every rendered can image.
-        materials.can_materials(obj)
+        obj = can.build_can()  # with its materials: label on the side wall, aluminium lid and bottom
     else:
         from deformsim.blender.mesh_import import import_mesh
 

@@ -10,7 +10,7 @@ import typer
 from deformsim.cli.common import console, fail_cleanly
 from deformsim.errors import UserError
 
-QUICK = {"generate.n": 320}
+SIZES = {True: {"generate.n": 320}, False: {"generate.n": 640}}  # --quick or not
 
 
 def parse_sets(items: list[str]) -> dict:
@@ -38,9 +38,12 @@ def register(app: typer.Typer) -> None:
     def sim2real(
         real: Path = typer.Option(..., "--real", help="labelled real photos (intact/ and deformed/), for scoring only"),
         backgrounds: Optional[Path] = typer.Option(None, "--backgrounds", help="background photos for compositing"),
-        out: Path = typer.Option(Path("runs/sim2real"), "--out", "-o", help="benchmark folder (datasets are reused)"),
+        out: Path = typer.Option(Path("runs/sim2real"), "--out", "-o", help="benchmark folder"),
+        datasets: Optional[Path] = typer.Option(
+            None, "--datasets", help="where rendered datasets are kept and reused (default: the benchmark folder)"
+        ),
         config: str = typer.Option("quick", "--config", "-c", help="YAML config file or preset name"),
-        quick: bool = typer.Option(False, "--quick", help="320 images, 2 background draws, 2 training seeds"),
+        quick: bool = typer.Option(False, "--quick", help="320 images, 2 background draws, 2 training seeds (else 640, 3, 3)"),
         data_seeds: int = typer.Option(1, help="datasets with different generate seeds"),
         composite_seeds: Optional[int] = typer.Option(None, help="background draws per dataset (default 3)"),
         train_seeds: Optional[int] = typer.Option(None, help="training seeds per draw (default 3)"),
@@ -53,7 +56,7 @@ def register(app: typer.Typer) -> None:
         from deformsim.config import load_config
         from deformsim.evaluate.benchmark import Plan, format_table, run_benchmark
 
-        overrides = {**(QUICK if quick else {}), **parse_sets(set_)}
+        overrides = {**SIZES[quick], **parse_sets(set_)}
         if backgrounds is not None:
             overrides["composite.backgrounds"] = str(backgrounds)
         cfg = load_config(config, overrides)
@@ -61,6 +64,6 @@ def register(app: typer.Typer) -> None:
                     composite_seeds=composite_seeds or (2 if quick else 3),
                     train_seeds=train_seeds or (2 if quick else 3),
                     variants=tuple(v.strip() for v in variants.split(",") if v.strip()))
-        results = run_benchmark(cfg, out, real, plan, adapt=adapt, progress=progress)
+        results = run_benchmark(cfg, out, real, plan, adapt=adapt, datasets=datasets, progress=progress)
         console.print(format_table(results["variants"], results["majority_baseline"]))
         console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'results.json'}")

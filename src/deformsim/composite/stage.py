@@ -3,7 +3,9 @@
 A variant is ``OUT/variants/NAME/`` with ``images/ID.png``, ``manifest.parquet`` (``id``, ``image`` and what
 went into each composite) and ``composite.json`` (the settings). Each image draws from its own generator
 ``default_rng([seed, stable_int(id)])``, so the result does not depend on the number of workers. The
-variant is built in a staging folder and swapped in only when complete.
+variant is built in a staging folder and swapped in only when complete. Optional steps, each recorded per
+image: a class-balanced choice of background photo, framing around the object
+(:mod:`deformsim.composite.framing`) and camera effects (:mod:`deformsim.composite.effects`).
 """
 
 from __future__ import annotations
@@ -31,6 +33,8 @@ from deformsim.composite.backgrounds import (
     scan_backgrounds,
     warn_skipped,
 )
+from deformsim.composite.effects import apply_effects
+from deformsim.composite.framing import reframe
 from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inrange_matte
 from deformsim.config import CompositeConfig
 from deformsim.dataset.layout import RENDER_KINDS, Layout
@@ -67,6 +71,9 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
     photos = [str(p) for p in scan_backgrounds(cfg.backgrounds)] if cfg.backgrounds else []
     source = "rgba" if cfg.matte == "alpha" else "green"
     jobs = _jobs(layout, manifest, source)
+    if photos and cfg.balance_backgrounds:
+        first = balanced_photos(manifest["id"].tolist(), manifest["y"].tolist(), len(photos), seed)
+        jobs = [(*job, first[job[0]]) for job in jobs]
 
     staging = layout.root / "variants" / ".staging"
     staging.mkdir(parents=True, exist_ok=True)
@@ -89,6 +96,18 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return final
+
+
+def balanced_photos(ids: list[str], labels: list[int], n_photos: int, seed: int) -> dict[str, int]:
+    """Image id -> photo index, each photo used equally often (to within one) behind every class."""
+    rng = np.random.default_rng([seed, 0xBA1A])
+    out = {}
+    for y in sorted(set(labels)):
+        members = sorted((i for i, label in zip(ids, labels) if label == y), key=stable_int)
+        photos = rng.permutation(n_photos)
+        for k, j in enumerate(rng.permutation(len(members))):
+            out[members[j]] = int(photos[k % n_photos])
+    return out
 
 
 def _jobs(layout: Layout, manifest: pd.DataFrame, source: str) -> list[tuple[str, str, str | None]]:
@@ -149,7 +168,7 @@ def _read(path: str, flags: int) -> np.ndarray:
     return cv2.cvtColor(img, cv2.COLOR_BGRA2RGBA if img.shape[2] == 4 else cv2.COLOR_BGR2RGB)
 
 
-def composite_one(iid: str, src: str, exact: str | None) -> dict:
+def composite_one(iid: str, src: str, exact: str | None, photo: int | None = None) -> dict:
     """Matte, background and composite one image (worker side); writes it and returns its manifest row."""
     cfg, rng = _STATE["cfg"], np.random.default_rng([_STATE["seed"], stable_int(iid)])
     if cfg.matte == "alpha":
@@ -160,21 +179,29 @@ def composite_one(iid: str, src: str, exact: str | None) -> dict:
         alpha, fg = key(_read(src, cv2.IMREAD_COLOR), cfg)
         iou = binary_iou(alpha, _read(exact, cv2.IMREAD_UNCHANGED)[..., 3] / 255.0) if exact else float("nan")
     h, w = alpha.shape
-    bg, info = _background(rng, cfg, h, w)
+    bg, info = _background(rng, cfg, h, w, photo)
+    if cfg.object_fill is not None:
+        fg, alpha, frame = reframe(fg, alpha, cfg.object_fill, cfg.fill_offset, rng)
+        info.update(frame)
     out = fg + (1.0 - alpha)[..., None] * bg.astype(np.float32)
     out = np.clip(np.rint(out), 0, 255).astype(np.uint8)
+    if cfg.effects is not None:
+        out, fx = apply_effects(out, cfg.effects, rng)
+        info.update(fx)
     if not cv2.imwrite(os.path.join(_STATE["out"], f"{iid}.png"), cv2.cvtColor(out, cv2.COLOR_RGB2BGR)):
         raise OSError(f"cannot write composite of {iid} to {_STATE['out']}")
     return {"id": iid, "image": f"{_STATE['prefix']}/{iid}.png", "matte": cfg.matte, **info, "matte_iou": iou}
 
 
-def _background(rng: np.random.Generator, cfg: CompositeConfig, h: int, w: int) -> tuple[np.ndarray, dict]:
+def _background(rng: np.random.Generator, cfg: CompositeConfig, h: int, w: int,
+                photo_index: int | None) -> tuple[np.ndarray, dict]:
     photos = _STATE["photos"]
     if not photos:
         kind, sub = PROCEDURAL_KINDS[int(rng.integers(len(PROCEDURAL_KINDS)))], int(rng.integers(2**31))
         info = {"background": f"procedural:{kind}:{sub}", "bg_x": 0.0, "bg_y": 0.0, "bg_scale": 1.0, "bg_flip": False}
         return procedural(kind, sub, h, w), info
-    first = int(rng.integers(len(photos)))
+    first = int(rng.integers(len(photos)))  # drawn even when assigned, so later draws stay where they were
+    first = first if photo_index is None else photo_index
     smax = cfg.scale_jitter[1]
     for k in range(len(photos)):  # a corrupt photo deterministically falls through to the next one
         path = photos[(first + k) % len(photos)]

@@ -11,6 +11,7 @@ them. Unlabelled photos given as ``adapt`` may adapt the model (their folder str
 from __future__ import annotations
 
 import json
+import shutil
 import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -83,8 +84,12 @@ def _draws(variant: str, plan: Plan) -> range:
 
 
 def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt: Path | None = None,
-                  progress: bool = True) -> dict:
-    """Generate (or reuse), composite, train and test every run of ``plan``; write ``out/results.json``."""
+                  datasets: Path | None = None, progress: bool = True) -> dict:
+    """Generate (or reuse), composite, train and test every run of ``plan``; write ``out/results.json``.
+
+    Datasets live in ``datasets`` (default ``out``), named by their settings, so benchmarks of other training or
+    compositing settings reuse the renders; composited variants are named by their settings too.
+    """
     from deformsim.composite.stage import composite
     from deformsim.dataset.real import real_table
     from deformsim.dataset.variants import variant_table
@@ -101,25 +106,26 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     photo_variants = [v for v in plan.variants if v not in RENDERED]
     if photo_variants and cfg.composite.backgrounds is None and "procedural" not in photo_variants:
         raise UserError(f"variants {', '.join(photo_variants)} need composite.backgrounds (a photo folder)")
-    datasets = []
+    store = Path(datasets or out)
+    folders = []
     for d in range(plan.data_seeds):
         cfg_d = cfg.model_copy(deep=True)
         cfg_d.generate.seed = cfg.generate.seed + d
-        folder = out / f"data-{digest(data_settings(cfg_d))}"
+        folder = store / f"data-{digest(data_settings(cfg_d))}"
         prepare(cfg_d, folder)  # every input check before any work
-        datasets.append((cfg_d, folder))
+        folders.append((cfg_d, folder))
 
     runs: list[dict] = []
     total = sum(len(_draws(v, plan)) for v in plan.variants) * plan.data_seeds * plan.train_seeds
-    for cfg_d, folder in datasets:
+    for cfg_d, folder in folders:
         log.info("dataset seed %d: %s", cfg_d.generate.seed, folder)
         generate(cfg_d, folder, progress=progress)
         for variant in plan.variants:
             for c in _draws(variant, plan):
                 name = variant
                 if variant not in RENDERED:
-                    name = f"{variant}-seed{c}"
                     comp = cfg.composite if variant != "procedural" else cfg.composite.model_copy(update={"backgrounds": None})
+                    name = f"{variant}-{digest(comp.model_dump(mode='json'))[:8]}-seed{c}"
                     _composite_once(composite, folder, comp, name, c, progress)
                 table = variant_table(folder, name)
                 for k in range(plan.train_seeds):
@@ -129,6 +135,8 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
                              train_cfg.seed)
                     train_df, test_df = grouped_split(table, train_cfg.split, train_cfg.seed)
                     model_dir = out / "models" / f"{folder.name}-{name}-train{train_cfg.seed}"
+                    if model_dir.exists():
+                        shutil.rmtree(model_dir)  # the benchmark's own output: retrained from scratch
                     fit(train_df, train_cfg, model_dir, progress=progress, adapt=adapt)
                     predictor = load(model_dir)
                     synth = compute_metrics(test_df["y"].to_numpy(), predictor.predict_proba(list(test_df["path"])),
@@ -149,6 +157,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
         "real_dir": str(Path(real).resolve()),
         "real_images": len(real_df),
         "real_paths": list(real_df["path"]),
+        "real_labels": [int(v) for v in real_df["y"]],  # for scoring and the reliability diagram only
         "majority_baseline": max(share, 1 - share),
         "plan": {"data_seeds": plan.data_seeds, "composite_seeds": plan.composite_seeds,
                  "train_seeds": plan.train_seeds, "variants": list(plan.variants)},

@@ -1,5 +1,8 @@
 """Training: Adam on the trainable tail and head, BCE-with-logits, an 80/20 split grouped by rendered object.
 
+With ``train.feature_norm`` the pooled-feature statistics are set exactly from the training images at the end;
+``adapt`` (a folder of unlabelled real photos) then adapts them (:mod:`deformsim.learn.adapt`).
+
 With ``cache_features`` (and no augmentation) every epoch trains on the cached stem activations of the
 images (:mod:`deformsim.learn.features`); otherwise each batch goes through the whole network.
 """
@@ -17,6 +20,7 @@ from torch import nn
 from deformsim.atomic import write_json
 from deformsim.config import TrainConfig
 from deformsim.dataset.tables import check_table, split
+from deformsim.errors import UserError
 from deformsim.learn import checkpoint
 from deformsim.learn.data import ImageSet, augmenter
 from deformsim.learn.device import pick_device, set_threads
@@ -46,6 +50,10 @@ class _Inputs:
         if cfg.cache_features and not cfg.augment:
             self.feats = cached_stem(model, paths, cfg.image_size, cfg.batch_size, progress).to(device)
 
+    def all(self, rows: torch.Tensor, batch_size: int) -> torch.Tensor:
+        """Plain (not augmented) stem activations of ``rows``."""
+        return torch.cat([self(b, train=False) for b in rows.split(batch_size)])
+
     def __call__(self, rows: torch.Tensor, train: bool) -> torch.Tensor:
         if self.feats is not None:
             return self.feats[rows]
@@ -67,9 +75,64 @@ def _evaluate(model: DeformNet, inputs: _Inputs, rows: torch.Tensor, y: torch.Te
     return loss, acc
 
 
-def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = True) -> TrainResult:
-    """Train on ``table`` (columns id, path, y), validate on its held-out split, save ``out_dir/model.pt``."""
+def _step(model: DeformNet, opt, z: torch.Tensor, target: torch.Tensor, cfg: TrainConfig) -> tuple[float, int]:
+    """One optimiser step; returns the summed loss and the number of correct predictions."""
+    logits = model.tail(z)
+    loss = nn.functional.binary_cross_entropy_with_logits(logits, target)
+    opt.zero_grad()
+    loss.backward()
+    opt.step()
+    return loss.item() * len(z), int(((torch.sigmoid(logits) >= cfg.threshold).float() == target).sum())
+
+
+def _adapt_paths(cfg: TrainConfig, adapt: Path | None) -> list[str]:
+    """The unlabelled photos to adapt to (any folder, searched recursively); checked before training."""
+    if adapt is None:
+        return []
+    from deformsim.dataset.real import expand_images
+
+    if not cfg.feature_norm:
+        raise UserError("--adapt needs train.feature_norm: true (the statistics it re-estimates)")
+    if not Path(adapt).is_dir():
+        raise UserError(f"--adapt folder not found: {adapt}")
+    return [str(p) for p in expand_images([adapt])]
+
+
+def _adapt(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor, y: torch.Tensor, cfg: TrainConfig,
+           paths: list[str], device: torch.device, progress: bool) -> dict:
+    from deformsim.learn.adapt import pseudo_labels, set_feature_stats
+
+    target = cached_stem(model, paths, cfg.image_size, cfg.batch_size, progress).to(device)
+    set_feature_stats(model, target, cfg.batch_size)
+    info = {"images": len(paths), "method": cfg.adapt_method}
+    if cfg.adapt_method == "selftrain":
+        rows, labels = pseudo_labels(model, target, cfg)
+        info["pseudo_labels"] = {"deformed": int(labels.sum()), "intact": int(len(labels) - labels.sum())}
+        if len(rows) == 0:
+            log.warning("self-training: no photo was classified surely enough; AdaBN only")
+        order = torch.Generator().manual_seed(cfg.seed + 1)
+        for _ in range(cfg.adapt_epochs if len(rows) else 0):
+            model.train()
+            # one domain per batch, so the feature BatchNorm normalises each domain by its own statistics
+            syn = train_rows[torch.randperm(len(train_rows), generator=order)].split(cfg.batch_size)
+            real = torch.randperm(len(rows), generator=order).split(cfg.batch_size)
+            for s_batch, r_batch in zip(syn, real * (len(syn) // max(1, len(real)) + 1)):
+                if len(s_batch) > 1:
+                    _step(model, opt, inputs(s_batch, train=True), y[s_batch.to(device)], cfg)
+                if len(r_batch) > 1:
+                    _step(model, opt, target[rows[r_batch]], labels[r_batch], cfg)
+        set_feature_stats(model, target, cfg.batch_size)
+    return info
+
+
+def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = True,
+        adapt: Path | None = None) -> TrainResult:
+    """Train on ``table`` (columns id, path, y), validate on its held-out split, save ``out_dir/model.pt``.
+
+    ``adapt``: a folder of unlabelled real photos to adapt to (needs ``train.feature_norm``; labels never read).
+    """
     check_table(table)
+    adapt_paths = _adapt_paths(cfg, adapt)
     start = time.perf_counter()
     set_threads()
     table = table.reset_index(drop=True)
@@ -81,7 +144,6 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     inputs = _Inputs(model, list(table["path"]), cfg, device, progress)
     params = [p for p in model.parameters() if p.requires_grad]
     opt = torch.optim.Adam(params, lr=cfg.lr)
-    loss_fn = nn.BCEWithLogitsLoss()
     order = torch.Generator().manual_seed(cfg.seed)
     torch.manual_seed(cfg.seed)  # dropout and augmentation draw from here; a cache miss must not shift them
     history = []
@@ -91,13 +153,11 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
             model.train()
             total, correct = 0.0, 0
             for batch in train_rows[torch.randperm(len(train_rows), generator=order)].split(cfg.batch_size):
-                logits, target = model.tail(inputs(batch, train=True)), y[batch.to(device)]
-                loss = loss_fn(logits, target)
-                opt.zero_grad()
-                loss.backward()
-                opt.step()
-                total += loss.item() * len(batch)
-                correct += int(((torch.sigmoid(logits) >= cfg.threshold).float() == target).sum())
+                if cfg.feature_norm and len(batch) < 2:
+                    continue  # batch statistics need two images
+                loss, right = _step(model, opt, inputs(batch, train=True), y[batch.to(device)], cfg)
+                total += loss
+                correct += right
             val_loss, val_acc = _evaluate(model, inputs, val_rows, y, cfg)
             row = {"epoch": epoch, "loss": total / len(train_rows), "acc": correct / len(train_rows),
                    "val_loss": val_loss, "val_acc": val_acc, "seconds": time.perf_counter() - t0}
@@ -106,12 +166,19 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
             if progress:
                 log.info("epoch %d/%d: loss %.3f, acc %.2f, val_acc %s", epoch, cfg.epochs, row["loss"], row["acc"],
                          "-" if val_acc is None else f"{val_acc:.2f}")
+    adapted = None
+    if cfg.feature_norm:
+        from deformsim.learn.adapt import set_feature_stats
+
+        set_feature_stats(model, inputs.all(train_rows, cfg.batch_size), cfg.batch_size)
+    if adapt_paths:
+        adapted = {"folder": str(adapt), **_adapt(model, opt, inputs, train_rows, y, cfg, adapt_paths, device, progress)}
     out_dir = Path(out_dir)
     model_path = out_dir / checkpoint.MODEL_FILE
     seconds = time.perf_counter() - start
     split_ids = {"train": table["id"].iloc[train_rows.numpy()].tolist(), "val": table["id"].iloc[val_rows.numpy()].tolist()}
     checkpoint.save(model_path, model, cfg, weights, history, split_ids)
     write_json(out_dir / "train.json", {"weights": weights, "seconds": seconds, "history": history,
-                                        "n_train": len(train_rows), "n_val": len(val_rows),
+                                        "n_train": len(train_rows), "n_val": len(val_rows), "adapted": adapted,
                                         "config": cfg.model_dump(mode="json")})
     return TrainResult(model_path, history, weights, seconds)
