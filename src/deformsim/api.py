@@ -30,11 +30,14 @@ class Engine:
             self.config = load_config(config, overrides)
         self.progress = progress
 
-    def generate(self, out: str | Path):
-        """Render the dataset into ``out`` (resuming what is there); a :class:`GenerateResult`."""
+    def generate(self, out: str | Path, overwrite: bool = False):
+        """Render the dataset into ``out`` (resuming what is there); a :class:`GenerateResult`.
+
+        A dataset of other settings or inputs in ``out`` is refused unless ``overwrite`` (then replaced whole).
+        """
         from deformsim.generate.stage import generate
 
-        return generate(self.config, Path(out), progress=self.progress)
+        return generate(self.config, Path(out), progress=self.progress, overwrite=overwrite)
 
     def composite(self, data: str | Path, name: str | None = None, seed: int = 0,
                   backgrounds: str | Path | None = None) -> Path:
@@ -46,13 +49,20 @@ class Engine:
             cfg = cfg.model_copy(update={"backgrounds": Path(backgrounds)})
         return composite(Path(data), cfg, name, seed, progress=self.progress)
 
-    def train(self, data: str | Path, out: str | Path, variant: str | None = None):
-        """Train on a dataset variant or a folder of intact/ and deformed/ photos; a :class:`TrainResult`."""
+    def train(self, data: str | Path, out: str | Path, variant: str | None = None, adapt: str | Path | None = None,
+              overwrite: bool = False):
+        """Train on a dataset variant or a folder of intact/ and deformed/ photos; a :class:`TrainResult`.
+
+        ``adapt``: a folder of unlabelled photos of real parts to adapt to (needs ``train.feature_norm``). A model
+        of other settings in ``out`` is refused unless ``overwrite``.
+        """
         from deformsim.dataset.tables import load_table
-        from deformsim.learn.train import fit
+        from deformsim.pipeline import train_model
 
         table = load_table(Path(data), variant, self.config.train.variants[0])
-        return fit(table, self.config.train, Path(out), progress=self.progress)
+        return train_model(table, self.config.train, Path(out), Path(data), variant or self.config.train.variants[0],
+                           overwrite=overwrite,
+                           progress=self.progress, adapt=Path(adapt) if adapt is not None else None)
 
     def evaluate(self, model: str | Path, data: str | Path | None = None, variant: str | None = None,
                  real: str | Path | None = None, threshold: float | None = None) -> dict:
@@ -61,17 +71,18 @@ class Engine:
 
         return evaluate_model(model, data, variant, real, threshold)
 
-    def report(self, data: str | Path, out: str | Path | None = None, real: str | Path | None = None) -> Path:
+    def report(self, data: str | Path, out: str | Path | None = None, real: str | Path | None = None,
+               overwrite: bool = False) -> Path:
         """Train and test every variant (the paper's Table II), write the HTML report; its path."""
-        from deformsim.evaluate.experiments import run_experiments
-        from deformsim.report.html import write_report
+        from deformsim.pipeline import make_report
 
         out = Path(out) if out is not None else Path(data) / "report"
-        metrics = run_experiments(Path(data), self.config.train, out, real_dir=real, progress=self.progress)
-        return write_report(metrics, out)
+        return make_report(Path(data), self.config.train, out, real=Path(real) if real is not None else None,
+                           overwrite=overwrite, progress=self.progress)
 
-    def run(self, out: str | Path, real: str | Path | None = None):
+    def run(self, out: str | Path, real: str | Path | None = None, overwrite: bool = False):
         """Every stage into ``out``, skipping those already up to date; a :class:`RunResult`."""
         from deformsim.pipeline import run
 
-        return run(self.config, Path(out), real=Path(real) if real is not None else None, progress=self.progress)
+        return run(self.config, Path(out), real=Path(real) if real is not None else None, progress=self.progress,
+                   overwrite=overwrite)

@@ -259,11 +259,13 @@ def preset_path(name: str) -> Path:
     return PRESET_DIR / f"{name}.yaml"
 
 
-def load_config(source: str | Path | None = None, overrides: dict | None = None) -> Config:
+def load_config(source: str | Path | None = None, overrides: dict | None = None,
+                flags: dict[str, str] | None = None) -> Config:
     """Load a config from a YAML path or preset name (default ``quick``), apply dotted overrides.
 
     ``overrides`` maps dotted keys (``"render.resolution"``) to values; ``None`` values are ignored.
-    Raises :class:`UserError` with one line naming the bad file or value.
+    ``flags`` names where an override came from (``{"generate.n": "--n"}``), for error messages.
+    Raises :class:`UserError` with one line naming the bad file or value (a bad override by its flag).
     """
     source = source or "quick"
     path = Path(source)
@@ -271,7 +273,8 @@ def load_config(source: str | Path | None = None, overrides: dict | None = None)
         path = preset_path(str(source))
     if not path.is_file():
         raise UserError(f"config file not found: {source} (presets: {', '.join(list_presets())})")
-    return validate_config(apply_overrides(read_mapping(path, "config"), overrides), str(path))
+    given = {k: v for k, v in (overrides or {}).items() if v is not None}
+    return validate_config(apply_overrides(read_mapping(path, "config"), given), str(path), given, flags)
 
 
 def apply_overrides(data: dict, overrides: dict | None) -> dict:
@@ -287,13 +290,22 @@ def apply_overrides(data: dict, overrides: dict | None) -> dict:
     return data
 
 
-def validate_config(data: dict, origin: str = "config") -> Config:
+def validate_config(data: dict, origin: str = "config", overrides: dict | None = None,
+                    flags: dict[str, str] | None = None) -> Config:
+    """``data`` as a :class:`Config`, or one :class:`UserError` line naming the bad value and where it came from:
+    ``origin`` (the file), or, for a key set by ``overrides``, its flag in ``flags`` (else "override KEY")."""
     try:
         return Config.model_validate(data)
     except ValidationError as exc:
         err = exc.errors()[0]
         where = ".".join(str(p) for p in err["loc"]) or "config"
-        raise UserError(f"{origin}: invalid {where}: {err['msg']} (got {err.get('input')!r})") from None
+        msg = err["msg"].removeprefix("Value error, ")
+        key = where if where in (overrides or {}) else next((k for k in overrides or {} if k in msg), None)
+        if key is not None:
+            flag = (flags or {}).get(key) or f"override {key}"
+            what = f"invalid {key}: {msg}" if key == where else msg
+            raise UserError(f"{flag} {overrides[key]}: {what}") from None
+        raise UserError(f"{origin}: invalid {where}: {msg} (got {err.get('input')!r})") from None
 
 
 def list_presets() -> list[str]:

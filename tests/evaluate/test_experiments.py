@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 
 from deformsim.config import TrainConfig
 from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
+from deformsim.evaluate.experiments import review_order
 
 pytestmark = [pytest.mark.torch, pytest.mark.blender]
 
@@ -84,6 +85,14 @@ def test_table2_experiments(experiments, four_samples):
         assert m["accuracy"] == pytest.approx(right / m["n"])
         assert [h["epoch"] for h in part["history"]] == [1] and "none" in part["weights"]
     assert black["summary"]["real"]["accuracy"] == real["metrics"]["accuracy"]
+    # Grad-CAM of the real-test model: every photo (8 < GRADCAM_MAX), misclassified first, one PNG each
+    assert "gradcam" not in split
+    order = [real["predictions"][i] for i in review_order(real["predictions"], 0.5)]
+    assert [{k: c[k] for k in ("path", "y", "prob")} for c in real["gradcam"]] == order
+    for c in real["gradcam"]:
+        assert c["image"].startswith("gradcam/black/")
+        with Image.open(out / c["image"]) as im, Image.open(c["path"]) as photo:
+            assert im.format == "PNG" and im.size == photo.size  # 64 px photos: not enlarged
     for name in [metrics["plots"]["pca_pixels"], *metrics["plots"]["pca_features"].values()]:
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert list(metrics["plots"]["pca_features"]) == ["black"]
@@ -96,7 +105,9 @@ def test_report_from_experiments(experiments):
     html = write_report(metrics, out).read_text()
     acc = metrics["variants"]["black"]["real"]["metrics"]["accuracy"]
     assert f"{100 * acc:.1f}%" in html
-    assert html.count("data:image/png;base64,") >= 3  # pixel PCA, feature PCA, training curves
+    assert html.count("data:image/png;base64,") >= 4  # pixel PCA, feature PCA, training curves, reliability
+    assert "Calibration on the real photographs" in html
+    assert html.count('class="thumb cam ') == len(metrics["variants"]["black"]["real"]["gradcam"])
     refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)""", html)
     assert refs and all(r.startswith("data:") for r in refs)
 

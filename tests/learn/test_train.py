@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -82,13 +84,15 @@ def test_training_is_deterministic_and_reuses_cache(trained, blobs, tmp_path, mo
     assert strip(again.history) == strip(trained[0].history)
 
 
-def test_cache_key_tracks_images_and_weights(blobs):
+def test_cache_key_tracks_images_and_weights(blobs, tmp_path):
     model, _ = build(TrainConfig(weights="none", image_size=64))
-    paths = list(blobs["path"][:4])
+    paths = [shutil.copy(p, tmp_path) for p in blobs["path"][:4]]
     key = F.cache_key(model, paths, 64)
     assert F.cache_key(model, paths, 96) != key
     st = os.stat(paths[0])
-    os.utime(paths[0], ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))  # the image was rewritten
+    os.utime(paths[0], ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))  # touched: the same image
+    assert F.cache_key(model, paths, 64) == key
+    Path(paths[0]).write_bytes(Path(blobs["path"][5]).read_bytes())  # the image was rewritten
     assert F.cache_key(model, paths, 64) != key
     other, _ = build(TrainConfig(weights="none", image_size=64, seed=1))
     assert F.cache_key(other, paths, 64) != F.cache_key(model, paths, 64)

@@ -1,5 +1,6 @@
 """The report page, from a hand-made metrics dict shaped like run_experiments' output (no training here)."""
 
+import os
 import re
 
 import numpy as np
@@ -8,6 +9,8 @@ import pytest
 from PIL import Image
 
 from deformsim.config import TrainConfig
+from deformsim.evaluate.calibration import reliability
+from deformsim.evaluate.experiments import review_order
 from deformsim.evaluate.metrics import compute_metrics
 from deformsim.evaluate.pca import pixel_pca_png
 from deformsim.report.html import write_report
@@ -52,6 +55,9 @@ def metrics(tmp_path):
         "split": _result(syn[:4], [0, 0, 1, 1], [0.2, 0.7, 0.9, 0.8], "models/black_split/model.pt"),
         "real": _result(real, y, [0.1, 0.2, 0.3, 0.9, 0.6, 0.8, 0.4, 0.95], "models/black_full/model.pt"),
     }
+    cams = _images(out / "gradcam" / "black", 3, rng)  # stand-ins for run_experiments' heatmaps of 3 photos
+    black["real"]["gradcam"] = [{**black["real"]["predictions"][i], "image": os.path.relpath(c, out)}
+                                for i, c in zip(review_order(black["real"]["predictions"], 0.5), cams)]
     backgrounds = {"n_images": 8, "n_samples": 2, "examples": [],
                    "split": {"skipped": "a split needs at least 2 samples of each class, got 1 with y=0"},
                    "real": _result(real, y, [0.4] * 4 + [0.6, 0.6, 0.6, 0.2], "models/backgrounds_full/model.pt")}
@@ -85,6 +91,27 @@ def test_report_shows_the_numbers_and_is_self_contained(metrics):
     refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)""", html)
     assert refs and all(r.startswith("data:") for r in refs)
     assert "url(" not in html and "@import" not in html and "<script" not in html
+
+
+def test_report_shows_calibration_and_gradcam_of_the_real_photos(metrics):
+    m, out = metrics
+    html = write_report(m, out).read_text()
+    calibration = html[html.index("Calibration on the real photographs"):html.index("Where the models look")]
+    for v, e in m["variants"].items():
+        preds = e["real"]["predictions"]
+        ece = reliability([p["y"] for p in preds], [p["prob"] for p in preds])["ece"]
+        assert f"<b>{v}</b> {ece:.3f}" in calibration
+    assert calibration.count("data:image/png;base64,") == 1  # one figure, a diagram per variant
+    cams = html[html.index("Where the models look"):html.index("Domain gap")]
+    assert "<h3>black</h3>" in cams and "<h3>backgrounds</h3>" not in cams  # only models with heatmaps
+    assert cams.count("data:image/jpeg;base64,") == 3 and "… and 5 more photos" in cams
+    # misclassified first (red, most confident first), then the least confident right one; captions give the
+    # label, P(deformed) and file name
+    captions = re.findall(r'class="thumb cam (\w+)" title="([^"]+)"><img [^>]+>(.*?)<div class=sub>(.*?)</div>', cams)
+    assert [(c[0], c[2], c[3]) for c in captions] == [("bad", "intact · P(deformed) 0.90", "3.png"),
+                                                        ("bad", "deformed · P(deformed) 0.40", "6.png"),
+                                                        ("ok", "deformed · P(deformed) 0.60", "4.png")]
+    assert [c[1] for c in captions] == [g["path"] for g in m["variants"]["black"]["real"]["gradcam"]]
 
 
 def test_report_without_real_data_headlines_the_synthetic_test(metrics):

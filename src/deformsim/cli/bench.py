@@ -65,5 +65,6 @@ def register(app: typer.Typer) -> None:
                     train_seeds=train_seeds or (2 if quick else 3),
                     variants=tuple(v.strip() for v in variants.split(",") if v.strip()))
         results = run_benchmark(cfg, out, real, plan, adapt=adapt, datasets=datasets, progress=progress)
-        console.print(format_table(results["variants"], results["majority_baseline"]))
-        console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'results.json'}")
+        console.print(format_table(results["variants"], results["majority_baseline"]), soft_wrap=True, markup=False)
+        console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'results.json'}, "
+                      f"report: {out / 'report.html'}")

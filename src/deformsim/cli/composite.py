@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import console, err_console, fail_cleanly
+from deformsim.cli.common import console, err_console, fail_cleanly, load_cli_config
 
 
 def register(app: typer.Typer) -> None:
@@ -38,14 +38,13 @@ def register(app: typer.Typer) -> None:
 
         from deformsim.composite.backgrounds import BackgroundWarning
         from deformsim.composite.stage import composite as run
-        from deformsim.config import load_config
         from deformsim.dataset.layout import Layout
 
         own = Layout(out).config
         source = config or (str(own) if own.is_file() else None)
-        cfg = load_config(source, {
-            "composite.backgrounds": str(backgrounds) if backgrounds else None, "composite.matte": matte,
-            "composite.workers": workers,
+        cfg = load_cli_config(source, {
+            "--backgrounds": ("composite.backgrounds", str(backgrounds) if backgrounds else None),
+            "--matte": ("composite.matte", matte), "--workers": ("composite.workers", workers),
         }).composite
         with warnings.catch_warnings():
             warnings.simplefilter("always", BackgroundWarning)

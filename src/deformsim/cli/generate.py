@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import console, fail_cleanly
+from deformsim.cli.common import console, fail_cleanly, load_cli_config
 
 
 def generate(
@@ -24,18 +24,26 @@ def generate(
     backend: Optional[str] = typer.Option(None, help="local or ray"),
     address: Optional[str] = typer.Option(None, help="Ray cluster address (HOST:PORT or auto)"),
     gather: Optional[bool] = typer.Option(None, "--gather/--no-gather", help="Ray: return images to the driver"),
+    overwrite: bool = typer.Option(
+        False, "--overwrite", help="replace a dataset in --out made with other settings, inputs or more images"
+    ),
     progress: bool = typer.Option(True, "--progress/--no-progress"),
 ) -> None:
-    """Render a balanced, labelled intact/deformed dataset with Blender."""
-    from deformsim.config import load_config
+    """Render a balanced, labelled intact/deformed dataset with Blender.
+
+    Rerunning on the same folder resumes, or extends it with a larger --n. A folder rendered with other
+    settings, another mesh or spec content, or more images than --n is refused unless --overwrite is given,
+    which removes it as a whole and renders anew."""
     from deformsim.generate.stage import generate as run
 
-    cfg = load_config(config, {
-        "generate.n": n, "render.resolution": resolution, "render.samples": samples, "generate.seed": seed,
-        "generate.workers": workers, "render.device": device, "object.mesh": object_, "object.spec": spec,
-        "generate.backend": backend, "generate.address": address, "generate.gather": gather,
+    cfg = load_cli_config(config, {
+        "--n": ("generate.n", n), "--resolution": ("render.resolution", resolution),
+        "--samples": ("render.samples", samples), "--seed": ("generate.seed", seed),
+        "--workers": ("generate.workers", workers), "--device": ("render.device", device),
+        "--object": ("object.mesh", object_), "--spec": ("object.spec", spec), "--backend": ("generate.backend", backend),
+        "--address": ("generate.address", address), "--gather": ("generate.gather", gather),
     })
-    result = run(cfg, out, progress=progress)
+    result = run(cfg, out, progress=progress, overwrite=overwrite)
     console.print(
         f"[bold]{result.images}[/] images in {out} ({result.rendered} samples rendered now, "
         f"{result.seconds:.0f} s{', ' + result.device if result.device else ''}); "

@@ -8,11 +8,12 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from deformsim.cli.common import console, fail_cleanly
+from deformsim.cli.common import console, fail_cleanly, load_cli_config
 
 
 def train(
-    data: Path = typer.Argument(..., help="generated dataset, or a folder with intact/ and deformed/ photos"),
+    data: Path = typer.Argument(..., help="generated dataset, or a folder with intact/ and deformed/ photos "
+                                "(every image under each, subfolders included)"),
     out: Path = typer.Option(..., "--out", help="folder for model.pt and train.json"),
     variant: Optional[str] = typer.Option(None, help="image variant (default: the first of train.variants)"),
     epochs: Optional[int] = typer.Option(None, help="override train.epochs"),
@@ -20,18 +21,26 @@ def train(
     weights: Optional[str] = typer.Option(None, help="override train.weights (imagenet, offline, none)"),
     device: Optional[str] = typer.Option(None, help="override train.device (auto, cpu, cuda)"),
     config: Optional[str] = typer.Option(None, "--config", "-c", help="YAML config file or preset name"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace a model in --out trained with other settings"),
+    adapt: Optional[Path] = typer.Option(
+        None, "--adapt", help="unlabelled photos of real parts to adapt to (any folder; needs train.feature_norm)"
+    ),
     progress: bool = typer.Option(True, "--progress/--no-progress"),
 ) -> None:
-    """Train the deformation classifier on a dataset variant (80/20 split, grouped by object)."""
-    from deformsim.config import load_config
+    """Train the deformation classifier on a dataset variant (80/20 split, grouped by object).
+
+    An existing model in --out is replaced only when it was trained with the same settings on the same images,
+    or with --overwrite; the new one is built beside it and swapped in whole."""
     from deformsim.dataset.tables import load_table
+    from deformsim.outputs import check_folder_target
+    from deformsim.pipeline import train_model
 
-    cfg = load_config(config, {"train.epochs": epochs, "train.backbone": backbone, "train.weights": weights,
-                               "train.device": device}).train
+    check_folder_target(out, "--out")
+    cfg = load_cli_config(config, {"--epochs": ("train.epochs", epochs), "--backbone": ("train.backbone", backbone),
+                                   "--weights": ("train.weights", weights), "--device": ("train.device", device)}).train
     table = load_table(data, variant, cfg.variants[0])
-    from deformsim.learn.train import fit
-
-    result = fit(table, cfg, out, progress=progress)
+    result = train_model(table, cfg, out, data, variant or cfg.variants[0], overwrite=overwrite, progress=progress,
+                         adapt=adapt)
     last = result.history[-1]
     val = "n/a" if last["val_acc"] is None else f"{last['val_acc']:.3f}"
     console.print(f"weights: {result.weights}")
@@ -48,7 +57,10 @@ def predict(
     """Print P(deformed) and the predicted label of each image."""
     from deformsim.dataset.real import expand_images
     from deformsim.learn.predict import load
+    from deformsim.outputs import check_file_target
 
+    if csv is not None:
+        check_file_target(csv, "--csv")
     paths = expand_images(images)
     predictor = load(model_dir)
     proba, labels = predictor.predict(paths)

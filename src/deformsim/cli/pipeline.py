@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import console, fail_cleanly
+from deformsim.cli.common import REAL_HELP, console, fail_cleanly, load_cli_config
 
 
 def register(app: typer.Typer) -> None:
@@ -16,7 +16,7 @@ def register(app: typer.Typer) -> None:
     def run_cmd(
         config: str = typer.Option("quick", "--config", "-c", help="YAML config file or preset name"),
         out: Path = typer.Option(Path("runs/demo"), "--out", "-o", help="run folder"),
-        real: Optional[Path] = typer.Option(None, "--real", help="real photos (intact/ and deformed/) for sim-to-real"),
+        real: Optional[Path] = typer.Option(None, "--real", help=f"real photos for sim-to-real: {REAL_HELP}"),
         backgrounds: Optional[Path] = typer.Option(None, "--backgrounds", help="background photos (default: procedural)"),
         object_: Optional[Path] = typer.Option(None, "--object", help="CAD mesh instead of the built-in can"),
         spec: Optional[Path] = typer.Option(None, "--spec", help="deformation spec YAML for --object"),
@@ -25,18 +25,27 @@ def register(app: typer.Typer) -> None:
         samples: Optional[int] = typer.Option(None, help="Cycles samples per pixel"),
         epochs: Optional[int] = typer.Option(None, help="training epochs"),
         seed: Optional[int] = typer.Option(None, help="seed fixing every random choice"),
+        overwrite: bool = typer.Option(
+            False, "--overwrite", help="render the dataset anew when it holds more images than --n (else refused)"
+        ),
         progress: bool = typer.Option(True, "--progress/--no-progress"),
     ) -> None:
-        """Generate, composite, train, evaluate and report; stages already up to date are skipped."""
-        from deformsim.config import load_config
+        """Generate, composite, train, evaluate and report; stages already up to date are skipped.
+
+        Inputs count by content: an edited mesh, spec, background or real photo reruns what depends on it."""
         from deformsim.pipeline import run
 
-        cfg = load_config(config, {
-            "object.mesh": object_, "object.spec": spec, "generate.n": n, "render.resolution": resolution,
-            "render.samples": samples, "train.epochs": epochs, "generate.seed": seed,
-            "composite.backgrounds": backgrounds,
+        cfg = load_cli_config(config, {
+            "--object": ("object.mesh", object_), "--spec": ("object.spec", spec), "--n": ("generate.n", n),
+            "--resolution": ("render.resolution", resolution), "--samples": ("render.samples", samples),
+            "--epochs": ("train.epochs", epochs), "--seed": ("generate.seed", seed),
+            "--backgrounds": ("composite.backgrounds", backgrounds),
         })
-        result = run(cfg, out, real=real, progress=progress)
+        if real is not None:
+            from deformsim.dataset.real import describe, real_table
+
+            console.print(f"real photos in {describe(real_table(real), real)}", highlight=False, soft_wrap=True)
+        result = run(cfg, out, real=real, progress=progress, overwrite=overwrite)
         for name, secs in result.seconds.items():
             console.print(f"  {name:<24} {secs:7.1f} s")
         if result.skipped:

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from PIL import Image, ImageOps
+from PIL import Image
 
-from deformsim.dataset.images import IMAGE_EXTS, images_in
+from deformsim.dataset.images import IMAGE_EXTS, images_in, open_rgb
 from deformsim.errors import UserError
 
 PROCEDURAL_KINDS = ("gradient", "noise", "shapes", "texture")
@@ -52,16 +52,12 @@ def warn_skipped(path: Path, reason: object) -> None:
 
 @lru_cache(maxsize=48)
 def load_photo(path: str, min_w: int, min_h: int) -> np.ndarray:
-    """RGB uint8 pixels of a photo, decoded at the smallest draft size still covering ``min_w x min_h``.
+    """RGB uint8 pixels of a photo (the package's one loader, :func:`open_rgb`), decoded at the smallest draft
+    size still covering ``min_w x min_h``.
 
-    Raises ``OSError``/``ValueError`` (from PIL) for corrupt or truncated files.
+    Raises :class:`UserError` for corrupt or truncated files.
     """
-    with Image.open(path) as im:
-        w, h = im.size
-        r = max(min_w / w, min_h / h, 1e-9)
-        im.draft("RGB", (max(1, int(w * r) + 1), max(1, int(h * r) + 1)))
-        im = ImageOps.exif_transpose(im).convert("RGB")
-        return np.asarray(im)
+    return np.asarray(open_rgb(path, (min_w, min_h)))
 
 
 def fit(photo: np.ndarray, h: int, w: int, rng: np.random.Generator, scale: tuple[float, float], flip: bool):

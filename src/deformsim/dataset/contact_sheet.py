@@ -7,7 +7,7 @@ import pandas as pd
 from PIL import Image, ImageDraw, ImageFont
 
 from deformsim.atomic import atomic_path
-from deformsim.dataset.images import CLASSES
+from deformsim.dataset.images import CLASSES, open_rgb
 from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import read_manifest
 
@@ -46,7 +46,7 @@ def _on_grey(path) -> Image.Image:
 def contact_sheet(layout: Layout, count: int, seed: int, column: str = "rgba") -> None:
     """Write ``preview.png``: random images of the dataset (alpha over grey) with their labels."""
     df = pick(read_manifest(layout.root), count, seed)
-    images = [_on_grey(layout.root / p) if column == "rgba" else Image.open(layout.root / p) for p in df[column]]
+    images = [_on_grey(layout.root / p) if column == "rgba" else open_rgb(layout.root / p) for p in df[column]]
     captions = [(f"{r.label}  {r.id}", COLORS[r.label]) for r in df.itertuples()]
     sheet = grid(images, captions, cols=min(4, max(1, len(images))))
     with atomic_path(layout.preview) as tmp:

@@ -2,6 +2,7 @@
 
     OUT/
       config.yaml, versions.json      resolved config and package versions of the run
+      inputs.json                     sha256 of what it is rendered from: mesh file, parsed spec, HDRI files
       samples/000012.json             one record per finished sample (its manifest rows): the resume state
       images/{rgba,black,green}/ID.png  exact-alpha render and its black / green camera-background variants
       manifest.parquet, manifest.csv  one row per image, consolidated from the sample records
@@ -52,6 +53,10 @@ class Layout:
     @property
     def config(self) -> Path:
         return self.root / "config.yaml"
+
+    @property
+    def inputs(self) -> Path:
+        return self.root / "inputs.json"
 
     @property
     def versions(self) -> Path:

@@ -1,4 +1,8 @@
-"""Photos given by the user: labelled folders (``intact/`` + ``deformed/``) and lists of images to predict on."""
+"""Photos given by the user: labelled folders (``intact/`` + ``deformed/``) and lists of images to predict on.
+
+The rule for a labelled folder: every image under ``intact/`` (or ``good/``) is intact and every image under
+``deformed/`` (or ``defect/``) deformed, subfolders included; :func:`describe` says what was found where.
+"""
 
 from __future__ import annotations
 
@@ -30,6 +34,18 @@ def real_table(folder: str | Path) -> pd.DataFrame:
         rows += [{"id": f"{label}/{p.relative_to(sub).with_suffix('')}", "path": str(p.resolve()), "label": label, "y": y}
                  for p in images]
     return pd.DataFrame(rows)
+
+
+def describe(table: pd.DataFrame, folder: str | Path) -> str:
+    """What a labelled folder holds, per class and subfolder, e.g. ``40 intact (intact/ 38, intact/old/ 2), ...``."""
+    root = Path(folder).resolve()
+    parts = []
+    for label in CLASSES:
+        paths = table.loc[table["label"] == label, "path"]
+        where = pd.Series([Path(p).parent.relative_to(root).as_posix() + "/" for p in paths]).value_counts(sort=False)
+        inside = ", ".join(f"{d} {n}" for d, n in sorted(where.items()))
+        parts.append(f"{len(paths)} {label} ({inside})")
+    return f"{folder}: " + ", ".join(parts)
 
 
 def expand_images(items: list[str | Path]) -> list[Path]:

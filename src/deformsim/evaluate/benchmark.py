@@ -85,7 +85,8 @@ def _draws(variant: str, plan: Plan) -> range:
 
 def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt: Path | None = None,
                   datasets: Path | None = None, progress: bool = True) -> dict:
-    """Generate (or reuse), composite, train and test every run of ``plan``; write ``out/results.json``.
+    """Generate (or reuse), composite, train and test every run of ``plan``; write ``out/results.json`` and
+    ``out/report.html``.
 
     Datasets live in ``datasets`` (default ``out``), named by their settings, so benchmarks of other training or
     compositing settings reuse the renders; composited variants are named by their settings too.
@@ -95,10 +96,11 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     from deformsim.dataset.variants import variant_table
     from deformsim.evaluate.experiments import grouped_split
     from deformsim.evaluate.metrics import compute_metrics
-    from deformsim.generate.stage import data_settings, generate, prepare
+    from deformsim.generate.stage import data_name, generate, prepare
+    from deformsim.identity import digest
     from deformsim.learn.predict import load
     from deformsim.learn.train import fit
-    from deformsim.pipeline import digest
+    from deformsim.report.benchmark import write_benchmark_report
 
     t_start = time.perf_counter()
     out = Path(out)
@@ -111,7 +113,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     for d in range(plan.data_seeds):
         cfg_d = cfg.model_copy(deep=True)
         cfg_d.generate.seed = cfg.generate.seed + d
-        folder = store / f"data-{digest(data_settings(cfg_d))}"
+        folder = store / data_name(cfg_d)
         prepare(cfg_d, folder)  # every input check before any work
         folders.append((cfg_d, folder))
 
@@ -168,6 +170,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
         "seconds": time.perf_counter() - t_start,
     }
     write_json(out / "results.json", results)
+    write_benchmark_report(results, out)
     return results
 
 

@@ -3,13 +3,16 @@
 (a) *split*: a seeded split of the variant's images, stratified by label and grouped by ``sample`` (the
 views of one scene state never straddle train and test); train on one part, test on the other.
 (b) *real* (with a real folder): train on all of the variant's images, test on the real photographs.
-Models go to ``OUT/models/<variant>_{split,full}/``; everything measured goes to ``OUT/metrics.json``.
+Models go to ``OUT/models/<variant>_{split,full}/``; everything measured goes to ``OUT/metrics.json``; Grad-CAM
+heatmaps of the real-test models over real photos go to ``OUT/gradcam/<variant>/<n>.png``.
 """
 
 from __future__ import annotations
 
+import io
 import json
 import os
+import shutil
 import time
 from datetime import datetime, timezone
 from pathlib import Path
@@ -19,6 +22,7 @@ import pandas as pd
 
 from deformsim.atomic import write_bytes, write_json
 from deformsim.config import TrainConfig
+from deformsim.dataset.images import open_rgb
 from deformsim.dataset.real import real_table
 from deformsim.dataset.tables import split
 from deformsim.dataset.variants import list_variants, variant_table
@@ -29,6 +33,8 @@ from deformsim.log import get_logger
 log = get_logger(__name__)
 
 EXAMPLES_PER_CLASS = 3
+GRADCAM_MAX = 24  # real photos with a heatmap per model
+GRADCAM_SIZE = 224  # longest side of a heatmap image, pixels
 
 
 def grouped_split(table: pd.DataFrame, train_fraction: float, seed: int) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -89,6 +95,38 @@ def _examples(table: pd.DataFrame, rng: np.random.Generator) -> list[dict]:
         rows = table[table["y"] == y]
         pick = rng.choice(len(rows), size=min(EXAMPLES_PER_CLASS, len(rows)), replace=False)
         out += [{"path": rows["path"].iloc[i], "y": y} for i in sorted(pick)]
+    return out
+
+
+def review_order(predictions: list[dict], threshold: float) -> list[int]:
+    """Indices of ``predictions`` ({"y", "prob"}) to review: the misclassified (most confident first), then the
+    others (least confident first); ties keep their order."""
+    def key(i: int) -> tuple[int, float]:
+        p = predictions[i]
+        margin = abs(p["prob"] - threshold)
+        return (0, -margin) if (p["prob"] >= threshold) != bool(p["y"]) else (1, margin)
+
+    return sorted(range(len(predictions)), key=key)
+
+
+def gradcam_images(predictor, predictions: list[dict], threshold: float, out_dir: Path, folder: str) -> list[dict]:
+    """Grad-CAM overlays of the first :data:`GRADCAM_MAX` photos in :func:`review_order`, written as
+    ``out_dir/folder/<n>.png``; returns their predictions, each with its ``image`` relative to ``out_dir``."""
+    from PIL import Image
+
+    from deformsim.learn.gradcam import gradcam, overlay
+
+    chosen = [predictions[i] for i in review_order(predictions, threshold)[:GRADCAM_MAX]]
+    cams = np.concatenate([gradcam(predictor.model, z) for z in predictor._stems([p["path"] for p in chosen])])
+    out = []
+    for n, (p, cam) in enumerate(zip(chosen, cams)):
+        photo = open_rgb(p["path"])
+        photo.thumbnail((GRADCAM_SIZE, GRADCAM_SIZE))
+        buf = io.BytesIO()
+        Image.fromarray(overlay(np.asarray(photo), cam)).save(buf, format="PNG")
+        name = f"{folder}/{n}.png"
+        write_bytes(out_dir / name, buf.getvalue())
+        out.append({**p, "image": name})
     return out
 
 
@@ -154,6 +192,7 @@ def run_experiments(
         domains["real"] = real
     plots = {"pca_pixels": "pca_pixels.png", "pca_features": {}}
     write_bytes(out_dir / plots["pca_pixels"], pca.pixel_pca_png(domains, seed=cfg.seed))
+    shutil.rmtree(out_dir / "gradcam", ignore_errors=True)  # heatmaps of an earlier run
     for v, entry in variants.items():
         part = entry.get("real") or entry["split"]
         if "model" not in part:
@@ -163,6 +202,9 @@ def run_experiments(
         write_bytes(out_dir / name, pca.feature_pca_png(predictor, domains, title=f"model trained on {v}",
                                                         seed=cfg.seed))
         plots["pca_features"][v] = name
+        if "real" in entry:
+            _log(progress, f"{v}: Grad-CAM heatmaps of real photos")
+            part["gradcam"] = gradcam_images(predictor, part["predictions"], cfg.threshold, out_dir, f"gradcam/{v}")
 
     metrics = {
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),

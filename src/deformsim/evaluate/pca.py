@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 from PIL import Image
 
-from deformsim.dataset.images import CLASSES
+from deformsim.dataset.images import CLASSES, open_rgb
 
 MAX_PER_DOMAIN = 200
 MARKERS = {y: (marker, CLASSES[y]) for y, marker in enumerate(("o", "^"))}
@@ -24,8 +24,7 @@ def pixel_vectors(paths, size: int = 32) -> np.ndarray:
     """One row per image: its pixels resized to ``size`` x ``size`` RGB, scaled to [0, 1]."""
     rows = []
     for p in paths:
-        with Image.open(p) as im:
-            rows.append(np.asarray(im.convert("RGB").resize((size, size), Image.BILINEAR), dtype=np.float32))
+        rows.append(np.asarray(open_rgb(p).resize((size, size), Image.BILINEAR), dtype=np.float32))
     return np.stack(rows).reshape(len(rows), -1) / 255.0
 
 

@@ -6,9 +6,13 @@ workers; the driver alone writes sample records, so resume, retries and the mani
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
+
 from deformsim.config import Config
 from deformsim.dataset.layout import RENDER_KINDS, Layout
 from deformsim.dataset.manifest import rows_for, write_record
+from deformsim.errors import ResourceError
 from deformsim.log import get_logger
 from deformsim.parallel import worker_count
 from deformsim.sampling import SampleParams
@@ -42,6 +46,44 @@ def remove_partial_files(layout: Layout) -> None:
     for kind in RENDER_KINDS:
         for tmp in (layout.root / "images" / kind).glob(".*"):
             tmp.unlink(missing_ok=True)
+
+
+DISK_FULL_TEXT = ("No space left on device", "Disk quota exceeded", "[Errno 28]", "[Errno 122]")
+LOW_SPACE = 32 << 20  # bytes: a render that fails with less free space than this failed for want of space
+
+
+def log_sizes(layout: Layout) -> dict[Path, int]:
+    """Where each worker log ends now: what is written after belongs to this run."""
+    return {p: p.stat().st_size for p in (layout.root / "logs").glob("*.log")}
+
+
+def disk_full(layout: Layout, *reasons: str, since: dict[Path, int] | None = None) -> ResourceError | None:
+    """The one-line error for a failure caused by a full disk, or None.
+
+    The cause shows in the failure's reason, in what a worker logged after ``since`` (Blender prints it there,
+    then fails to read its own truncated render), or as too little free space where the dataset is written.
+    """
+    logs = sorted((layout.root / "logs").glob("*.log")) if since is not None else []
+    texts = list(reasons) + [_tail(p, (since or {}).get(p, 0)) for p in logs]
+    try:
+        free = shutil.disk_usage(layout.root).free
+    except OSError:
+        free = None
+    if not any(s in t for t in texts for s in DISK_FULL_TEXT) and (free is None or free >= LOW_SPACE):
+        return None
+    left = f"; {free / 2**20:.0f} MB free" if free is not None else ""
+    return ResourceError(f"the disk holding {layout.root} is full (No space left on device{left}): free some "
+                         "space, then rerun the same command to resume")
+
+
+def _tail(path: Path, start: int, size: int = 4096) -> str:
+    """The last ``size`` bytes of ``path`` written after offset ``start``."""
+    try:
+        with open(path, "rb") as f:
+            f.seek(max(start, f.seek(0, 2) - size))
+            return f.read().decode(errors="replace")
+    except OSError:
+        return ""
 
 
 class Retries:

@@ -1,13 +1,27 @@
-"""Render on this machine: a pool of threads, each driving one Blender worker process."""
+"""Render on this machine: a pool of threads, each driving one Blender worker process.
+
+Ctrl-C and SIGTERM (raised as KeyboardInterrupt by the command line) kill every worker at once and remove the
+partial files; a full disk stops the whole run with one line instead of failing every sample.
+"""
 
 from __future__ import annotations
 
+import errno
 import queue
 import threading
 
 from deformsim.config import Config
 from deformsim.dataset.layout import Layout
-from deformsim.generate.backend import Retries, finish_sample, remove_partial_files, render_workers, worker_setup
+from deformsim.errors import ResourceError, UserError
+from deformsim.generate.backend import (
+    Retries,
+    disk_full,
+    finish_sample,
+    log_sizes,
+    remove_partial_files,
+    render_workers,
+    worker_setup,
+)
 from deformsim.generate.worker_client import WorkerCrashed, WorkerProcess
 from deformsim.log import get_logger, progress_bar
 from deformsim.parallel import cores_per_worker
@@ -29,13 +43,20 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
     lock = threading.Lock()
     remaining = [len(params)]
     device = [""]
-    errors: list[str] = []
+    errors: list = []  # what stopped the run: a message, or an error to raise as it is
     live: dict[int, object] = {}  # worker slot -> running WorkerProcess, killed on Ctrl-C
     logs = layout.root / "logs"
     logs.mkdir(exist_ok=True)
+    since = log_sizes(layout)
     bar = progress_bar(total=len(params) * views, desc="render", enabled=progress)
 
     def retry_or_fail(i: int, reason: str) -> None:
+        full = disk_full(layout, reason, since=since)
+        if full is not None:  # every other sample would fail the same way
+            with lock:
+                errors.append(full)
+            stop.set()
+            return
         with lock:
             if retries.retry(i, reason):
                 tasks.put(i)
@@ -60,6 +81,8 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
                     proc = WorkerProcess(log_path=logs / f"worker{w}.log", threads=threads)
                     live[w] = proc
                     ready = proc.start(worker_setup(cfg, layout))
+                    if stop.is_set():  # stopped while it started
+                        return
                     device[0] = ready.get("device", "")
                     camera_scale = float(ready.get("camera_scale", 1.0))
                     rendered = 0
@@ -80,10 +103,13 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
                 bar.update(views)
         except WorkerCrashed as exc:  # crashed while starting: a setup problem, not a sample's
             stop.set()
-            errors.append(f"worker failed to start: {exc}")
+            errors.append(disk_full(layout, str(exc), since=since) or f"worker failed to start: {exc}")
+        except OSError as exc:  # the driver's own writes (sample records)
+            stop.set()
+            errors.append(disk_full(layout, str(exc)) if exc.errno in (errno.ENOSPC, errno.EDQUOT) else exc)
         except Exception as exc:  # pragma: no cover - surfaced to the caller below
             stop.set()
-            errors.append(repr(exc))
+            errors.append(exc)
         finally:
             if proc is not None:
                 proc.kill() if stop.is_set() else proc.close()
@@ -96,18 +122,25 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
         for t in pool:
             while t.is_alive():
                 t.join(timeout=0.5)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM raised as one
         stop.set()
         for proc in list(live.values()):
             proc.kill()
         for t in pool:
             t.join(timeout=10)
+        for proc in list(live.values()):  # any started while the threads stopped
+            proc.kill()
         bar.close()
         remove_partial_files(layout)
         raise
     bar.close()
     if errors:
-        raise RuntimeError(errors[0] + f" (see {logs})")
+        first = errors[0]
+        if isinstance(first, UserError):
+            raise first
+        if isinstance(first, str):
+            raise ResourceError(f"{first} (see {logs})")
+        raise first
     if device[0]:
         log.info("Cycles device: %s", device[0])
     return retries.failed, device[0]

@@ -1,4 +1,4 @@
-"""Image loading for training and prediction: tensors, augmentation, a torch Dataset of image files."""
+"""Images for training and prediction: tensors (read by the package's one loader), augmentation, a torch Dataset."""
 
 from __future__ import annotations
 
@@ -6,18 +6,17 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from PIL import Image, UnidentifiedImageError
+from PIL import Image
 
-from deformsim.errors import UserError
+from deformsim.dataset.images import open_rgb
 
 
 def load_image(path: str | Path, size: int) -> torch.Tensor:
-    """0-1 RGB float tensor (3, size, size); the image is resized (not cropped) to a square, as in the paper."""
-    try:
-        with Image.open(path) as im:
-            im = im.convert("RGB").resize((size, size), Image.BILINEAR)
-    except (UnidentifiedImageError, OSError) as exc:
-        raise UserError(f"cannot read image {path}: {exc}") from None
+    """0-1 RGB float tensor (3, size, size); the image is resized (not cropped) to a square, as in the paper.
+
+    Any file mode reads as the same 8-bit sRGB RGB (:func:`deformsim.dataset.images.open_rgb`).
+    """
+    im = open_rgb(path).resize((size, size), Image.BILINEAR)
     return torch.from_numpy(np.asarray(im).copy()).permute(2, 0, 1).float().div_(255)
 
 

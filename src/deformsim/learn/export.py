@@ -14,8 +14,10 @@ import torch
 from torch import nn
 
 from deformsim.atomic import atomic_path
+from deformsim.errors import ResourceError, UserError
 from deformsim.learn.checkpoint import read_checkpoint, restore
 from deformsim.learn.models import DeformNet
+from deformsim.outputs import DISK_FULL, check_file_target
 
 
 class _Probabilities(nn.Module):
@@ -28,12 +30,25 @@ class _Probabilities(nn.Module):
 
 
 def to_onnx(model_path: str | Path, onnx_path: str | Path) -> Path:
-    """Write the model at ``model_path`` (model.pt or its folder) to ``onnx_path``; returns the path."""
-    import onnx
+    """Write the model at ``model_path`` (model.pt or its folder) to ``onnx_path``; returns the path.
 
+    The output path is checked before the model is read; a failed write (a full disk) is one :class:`UserError`.
+    """
+    onnx_path = check_file_target(onnx_path, "--onnx")
     ckpt, _ = read_checkpoint(model_path)
     model, cfg = restore(ckpt)
-    onnx_path = Path(onnx_path)
+    try:
+        _export(model, cfg, ckpt, onnx_path)
+    except OSError as exc:
+        if exc.errno in DISK_FULL:
+            raise ResourceError(f"cannot write {onnx_path}: {exc.strerror}: free some disk space and export again") from None
+        raise UserError(f"cannot write {onnx_path}: {exc.strerror or exc}") from None
+    return onnx_path
+
+
+def _export(model: DeformNet, cfg, ckpt: dict, onnx_path: Path) -> None:
+    import onnx
+
     example = torch.zeros(1, 3, cfg.image_size, cfg.image_size)
     with atomic_path(onnx_path) as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice
@@ -47,4 +62,3 @@ def to_onnx(model_path: str | Path, onnx_path: str | Path) -> Path:
         for k, v in meta.items():
             proto.metadata_props.add(key=k, value=v)
         onnx.save(proto, str(tmp))
-    return onnx_path

@@ -3,21 +3,24 @@
 Every model built from the same backbone weights shares its frozen stem, so the cache is keyed per image:
 ``cache_dir()/features/<backbone>-<size>-<stem hash>/<image hash>.pt`` holds one image's activations entering
 the first trainable layer, in float32 so cached predictions equal uncached ones (and the ONNX export) to 1e-5.
-The stem hash covers the frozen weights themselves; the image hash its resolved path, size and modification
-time, so a rewritten image or other weights make new files. Training, prediction and PCA features of every run
-read the same files.
+The stem hash covers the frozen weights themselves; the image hash the image file's bytes (sha256) and the
+version of the image loader, so a rewritten image (even one copied over another with the same size and time),
+other weights or another decoding make new files, and identical images share one. Training, prediction and PCA
+features of every run read the same files.
 """
 
 from __future__ import annotations
 
 import hashlib
-import os
 from pathlib import Path
 from weakref import WeakKeyDictionary
 
 import torch
 
 from deformsim.atomic import atomic_path
+from deformsim.dataset.images import LOADER_VERSION
+from deformsim.errors import UserError
+from deformsim.identity import file_digest
 from deformsim.learn.data import ImageSet
 from deformsim.learn.models import DeformNet
 from deformsim.learn.weights import cache_dir
@@ -42,8 +45,11 @@ def stem_hash(model: DeformNet) -> str:
 
 
 def _image_identity(path: str) -> str:
-    st = os.stat(path)
-    return f"{Path(path).resolve()}|{st.st_size}|{st.st_mtime_ns}"
+    """The image's content (not its path or times) and how it is decoded."""
+    try:
+        return f"loader{LOADER_VERSION}|{file_digest(path)}"
+    except OSError as exc:
+        raise UserError(f"cannot read image {path}: {exc.strerror}") from None
 
 
 def cache_key(model: DeformNet, paths: list[str], size: int) -> list[str]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,15 +14,19 @@ from deformsim.learn.checkpoint import read_checkpoint, restore
 from deformsim.learn.data import ImageSet
 from deformsim.learn.device import pick_device, set_threads
 from deformsim.learn.features import cached_stem
+from deformsim.log import progress_bar
 
 LAYERS = ("penultimate", "pooled")
 CHUNK = 512  # images whose cached stem activations are held in memory at once
 
 
 class Predictor:
-    """A trained model in eval mode; ``cfg.image_size`` and ``cfg.threshold`` come from training."""
+    """A trained model in eval mode; ``cfg.image_size`` and ``cfg.threshold`` come from training.
 
-    def __init__(self, ckpt: dict, path: Path):
+    ``progress``: a progress bar while images go through the frozen layers (None: when stderr is a terminal).
+    """
+
+    def __init__(self, ckpt: dict, path: Path, progress: bool | None = None):
         self.model, self.cfg = restore(ckpt)
         self.device = pick_device(self.cfg.device)
         self.model.to(self.device)
@@ -30,16 +35,25 @@ class Predictor:
         self.classes: list[str] = ckpt.get("classes", list(CLASSES))
         self.history: list[dict] = ckpt.get("history", [])
         self.split: dict = ckpt.get("split", {})
+        self.progress = progress
+
+    @property
+    def _show_progress(self) -> bool:
+        return self.progress if self.progress is not None else sys.stderr.isatty()
 
     def _stems(self, paths):
         """Batches of stem activations (float32 on the device): cached per image unless ``cache_features`` is off."""
         paths, bs = [str(p) for p in paths], self.cfg.batch_size
         if not self.cfg.cache_features:
-            for x in torch.utils.data.DataLoader(ImageSet(paths, self.cfg.image_size), batch_size=bs):
-                yield self.model.stem(x.to(self.device))
+            loader = torch.utils.data.DataLoader(ImageSet(paths, self.cfg.image_size), batch_size=bs)
+            with progress_bar(len(loader), "frozen layers", self._show_progress) as bar:
+                for x in loader:
+                    yield self.model.stem(x.to(self.device))
+                    bar.update()
             return
         for i in range(0, len(paths), CHUNK):  # bounded memory on large folders
-            for z in cached_stem(self.model, paths[i : i + CHUNK], self.cfg.image_size, bs).split(bs):
+            stems = cached_stem(self.model, paths[i : i + CHUNK], self.cfg.image_size, bs, self._show_progress)
+            for z in stems.split(bs):
                 yield z.to(self.device)
 
     @torch.inference_mode()
@@ -62,8 +76,8 @@ class Predictor:
         return torch.cat(out).numpy() if out else np.zeros((0, 0), np.float32)
 
 
-def load(model_path: str | Path) -> Predictor:
-    """A :class:`Predictor` for ``model.pt`` or the folder that holds it."""
+def load(model_path: str | Path, progress: bool | None = None) -> Predictor:
+    """A :class:`Predictor` for ``model.pt`` or the folder that holds it (``progress``: see :class:`Predictor`)."""
     set_threads()
     ckpt, path = read_checkpoint(model_path)
-    return Predictor(ckpt, path)
+    return Predictor(ckpt, path, progress)

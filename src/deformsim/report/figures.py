@@ -6,7 +6,8 @@ import base64
 import io
 from pathlib import Path
 
-from PIL import Image
+from deformsim.dataset.images import open_rgb
+from deformsim.errors import UserError
 
 
 def data_uri(data: bytes, mime: str) -> str:
@@ -21,14 +22,35 @@ def png_file_uri(path: Path) -> str | None:
 def thumbnail_uri(path: str | Path, size: int = 120) -> str | None:
     """A JPEG thumbnail of the image at ``path`` (longest side ``size``), or None when it cannot be read."""
     try:
-        with Image.open(path) as im:
-            im = im.convert("RGB")
-            im.thumbnail((size, size))
-            buf = io.BytesIO()
-            im.save(buf, format="JPEG", quality=82)
-    except (OSError, ValueError):
+        im = open_rgb(path)
+    except UserError:
         return None
+    im.thumbnail((size, size))
+    buf = io.BytesIO()
+    im.save(buf, format="JPEG", quality=82)
     return data_uri(buf.getvalue(), "image/jpeg")
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _png(fig) -> bytes:
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    _pyplot().close(fig)
+    return buf.getvalue()
+
+
+def _text(name: str) -> str:
+    """A name as literal plot text (a ``$`` would start matplotlib's math mode)."""
+    return name.replace("$", r"\$")
 
 
 def curves_png(histories: dict[str, list[dict]]) -> bytes | None:
@@ -36,22 +58,20 @@ def curves_png(histories: dict[str, list[dict]]) -> bytes | None:
     histories = {k: h for k, h in histories.items() if h}
     if not histories:
         return None
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
+
+    plt = _pyplot()
 
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.2), dpi=110)
     for name, hist in histories.items():
         epochs = [h["epoch"] for h in hist]
         color = None
         for ax, key in zip(axes, ("loss", "acc")):
-            line = ax.plot(epochs, [h[key] for h in hist], marker="o", ms=3, color=color, label=f"{name} train")[0]
+            line = ax.plot(epochs, [h[key] for h in hist], marker="o", ms=3, color=color, label=f"{_text(name)} train")[0]
             color = line.get_color()
             val = [(e, h.get(f"val_{key}")) for e, h in zip(epochs, hist) if h.get(f"val_{key}") is not None]
             if val:
-                ax.plot(*zip(*val), ls="--", marker="s", ms=3, color=color, label=f"{name} validation")
+                ax.plot(*zip(*val), ls="--", marker="s", ms=3, color=color, label=f"{_text(name)} validation")
     epochs = [h["epoch"] for hist in histories.values() for h in hist]
     for ax, what in zip(axes, ("loss", "accuracy")):
         ax.set_xlim(min(epochs) - 0.5, max(epochs) + 0.5)
@@ -63,8 +83,61 @@ def curves_png(histories: dict[str, list[dict]]) -> bytes | None:
             ax.spines[side].set_visible(False)
     axes[1].set_ylim(0, 1.02)
     axes[1].legend(fontsize=7, frameon=False, loc="lower right")
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    plt.close(fig)
-    return buf.getvalue()
+    return _png(fig)
+
+
+def reliability_png(diagrams: dict[str, dict]) -> bytes:
+    """One reliability diagram per name (values from :func:`deformsim.evaluate.calibration.reliability`): per bin
+    the observed share of deformed images (blue), its gap to the mean predicted probability (hatched red) and its
+    number of images; the diagonal (dashed) is perfect calibration."""
+    plt = _pyplot()
+    cols = min(len(diagrams), 4)
+    rows = -(-len(diagrams) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 3.4 * rows), dpi=110, squeeze=False)
+    for ax, (name, d) in zip(axes.flat, diagrams.items()):
+        full = [b for b in d["bins"] if b["n"]]
+        lo, width = [b["lo"] for b in full], [b["hi"] - b["lo"] for b in full]
+        freq, prob = [b["freq"] for b in full], [b["prob"] for b in full]
+        ax.plot([0, 1], [0, 1], ls="--", lw=1, color="#888")
+        ax.bar(lo, freq, width, align="edge", color="#4c78a8", edgecolor="white")
+        ax.bar(lo, [p - f for p, f in zip(prob, freq)], width, bottom=freq, align="edge", fill=False, hatch="////",
+               edgecolor="#d0342c", lw=0.6)
+        for b in full:
+            ax.text((b["lo"] + b["hi"]) / 2, max(b["freq"], b["prob"]) + 0.02, str(b["n"]), ha="center", fontsize=7)
+        ax.set_title(f"{_text(name)}\nECE {d['ece']:.3f} · {d['n']} predictions", fontsize=9)
+        ax.set(xlim=(0, 1), ylim=(0, 1.1), xlabel="predicted P(deformed)")
+        ax.set_ylabel("observed share deformed", fontsize=8)
+        ax.tick_params(labelsize=7)
+        for side in ("top", "right"):
+            ax.spines[side].set_visible(False)
+    for ax in axes.flat[len(diagrams):]:
+        ax.axis("off")
+    return _png(fig)
+
+
+def error_bars_png(groups: list[str], series: dict[str, list[tuple[float, float, list[float]]]],
+                   reference: tuple[float, str] | None = None) -> bytes:
+    """Grouped bars: per group, one bar per series at its mean with a +-std error bar and a dot per value.
+
+    ``series`` maps a name to one ``(mean, std, values)`` per group; ``reference`` (value, label) is drawn as a
+    dashed line over the first group.
+    """
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(min(12, 3 + len(groups) * (0.5 + 0.35 * len(series))), 3.6), dpi=110)
+    width = 0.8 / len(series)
+    for i, (name, cells) in enumerate(series.items()):
+        x = [g - 0.4 + width * (i + 0.5) for g in range(len(groups))]
+        ax.bar(x, [c[0] for c in cells], width * 0.9, yerr=[c[1] for c in cells], capsize=3, alpha=0.85,
+               label=_text(name), error_kw={"lw": 1})
+        for xi, (_, _, values) in zip(x, cells):
+            offsets = [width * 0.6 * ((k + 0.5) / len(values) - 0.5) for k in range(len(values))]
+            ax.plot([xi + o for o in offsets], values, "o", ms=2.5, color="#1d2433", alpha=0.6)
+    if reference is not None:
+        ax.hlines(reference[0], -0.45, 0.45, colors="#555", linestyles="--", lw=1.2, label=_text(reference[1]))
+    ax.set_xticks(range(len(groups)), [_text(g) for g in groups], fontsize=8)
+    ax.set_ylim(0, 1.05)
+    ax.grid(axis="y", alpha=0.25)
+    for side in ("top", "right"):
+        ax.spines[side].set_visible(False)
+    ax.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1, 1))
+    return _png(fig)

@@ -11,7 +11,9 @@ from pathlib import Path
 
 from deformsim.atomic import write_text
 from deformsim.dataset.images import CLASSES
-from deformsim.report.figures import curves_png, data_uri, png_file_uri, thumbnail_uri
+from deformsim.evaluate.calibration import reliability
+from deformsim.evaluate.experiments import review_order
+from deformsim.report.figures import curves_png, data_uri, png_file_uri, reliability_png, thumbnail_uri
 
 KEYS = (("accuracy", "Acc"), ("f1", "F1"), ("precision", "Prec."), ("recall", "Recall"))
 PARTS = (("split", "Synthetic test (held out)"), ("real", "Real test (sim-to-real)"))
@@ -50,6 +52,8 @@ table.t2{border-collapse:collapse;width:100%;background:#fff;font-variant-numeri
 .thumb img{width:120px;height:120px;object-fit:contain;background:#222;border-radius:4px;display:block}
 .thumb.ok{border-top-color:#2e9e5b}
 .thumb.bad{border-top-color:#d0342c}
+.thumb.cam{width:184px}
+.thumb.cam img,.thumb.cam .missing{width:180px;height:180px}
 .missing{width:120px;height:120px;background:#ddd;display:flex;align-items:center;justify-content:center;color:#777}
 .kv{border-collapse:collapse;font-size:13px}
 .kv td{padding:3px 14px 3px 0;border-bottom:1px solid #e6e9ef;vertical-align:top}
@@ -155,10 +159,49 @@ def _confusion(title: str, cm: list[list[int]]) -> str:
             f"<tr><th></th>{pred}</tr>{''.join(body)}</table></div>")
 
 
-def _thumb(path: str, caption: str, cls: str = "") -> str:
-    uri = thumbnail_uri(path)
+def _thumb(path: str | Path, caption: str, cls: str = "", size: int = 120, title: str | None = None) -> str:
+    uri = thumbnail_uri(path, size)
     img = f'<img src="{uri}" alt="">' if uri else '<div class="missing">missing</div>'
-    return f'<div class="thumb {cls}" title="{escape(path)}">{img}{caption}</div>'
+    return f'<div class="thumb {cls}" title="{escape(str(title or path))}">{img}{caption}</div>'
+
+
+def _real_results(metrics: dict) -> list[tuple[str, dict]]:
+    return [(v, r) for v, part, r in _results(metrics) if part == "real"]
+
+
+def _calibration(metrics: dict) -> str:
+    diagrams = {v: reliability([p["y"] for p in r["predictions"]], [p["prob"] for p in r["predictions"]])
+                for v, r in _real_results(metrics)}
+    if not diagrams:
+        return ""
+    eces = " · ".join(f"<b>{escape(v)}</b> {d['ece']:.3f}" for v, d in diagrams.items())
+    return ("<h2>Calibration on the real photographs</h2><p class=note>Reliability diagrams of each variant's "
+            "real-test model: the photos binned by predicted P(deformed); each blue bar is the share of its photos "
+            "that are deformed (number of photos above it), hatched red its gap to the bin's mean prediction. A "
+            "calibrated model follows the dashed diagonal. Expected calibration error (ECE, the photo-weighted mean "
+            f"gap): {eces}.</p><div class=plots><img src='{data_uri(reliability_png(diagrams), 'image/png')}' "
+            "alt='reliability diagrams'></div>")
+
+
+def _gradcams(metrics: dict, out_dir: Path) -> str:
+    blocks = []
+    for v, r in _real_results(metrics):
+        if not r.get("gradcam"):
+            continue
+        thr = r["metrics"]["threshold"]
+        cells = [_thumb(out_dir / g["image"], f'{CLASSES[g["y"]]} · P(deformed) {g["prob"]:.2f}'
+                        f'<div class=sub>{escape(Path(g["path"]).name)}</div>',
+                        "cam " + ("bad" if (g["prob"] >= thr) != bool(g["y"]) else "ok"), 180, g["path"])
+                 for g in r["gradcam"]]
+        more = len(r["predictions"]) - len(cells)
+        blocks.append(f"<h3>{escape(v)}</h3><div class=grid>{''.join(cells)}</div>"
+                      + (f'<p class="note">… and {more} more photos</p>' if more > 0 else ""))
+    if not blocks:
+        return ""
+    return ("<h2>Where the models look (Grad-CAM)</h2><p class=note>For each variant's real-test model, the "
+            "regions of the photo whose features raise P(deformed) most (red and yellow; scaled per photo). A model "
+            "that transfers looks at the dent, not at the background. Misclassified photos first (red top border), "
+            "then the others, least confident first; captions give the true label.</p>" + "".join(blocks))
 
 
 def _predictions(metrics: dict) -> str:
@@ -168,10 +211,9 @@ def _predictions(metrics: dict) -> str:
     v, part, r = head
     preds = r["predictions"]
     thr = r["metrics"]["threshold"]
-    wrong = [p for p in preds if (p["prob"] >= thr) != bool(p["y"])]
-    right = [p for p in preds if (p["prob"] >= thr) == bool(p["y"])]
-    wrong.sort(key=lambda p: -abs(p["prob"] - thr))  # most confident mistakes first
-    right.sort(key=lambda p: abs(p["prob"] - thr))  # least confident successes first
+    order = [preds[i] for i in review_order(preds, thr)]  # most confident mistakes, then least confident successes
+    wrong = [p for p in order if (p["prob"] >= thr) != bool(p["y"])]
+    right = order[len(wrong):]
     where = "real photographs" if part == "real" else "held-out synthetic images"
 
     def grid(items, cls):
@@ -240,6 +282,8 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         "the variant.</p>",
         _table2(metrics),
         f"<h2>Confusion matrices</h2><div class=cms>{cms}</div>" if cms else "",
+        _calibration(metrics),
+        _gradcams(metrics, out_dir),
         _plots(metrics, out_dir),
         f"<h2>Training curves</h2><div class=plots><img src='{data_uri(curves, 'image/png')}' alt=curves></div>"
         if curves else "",

@@ -8,6 +8,7 @@ Validation happens here, before any rendering, with one-line errors naming the p
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Literal
 
@@ -20,6 +21,7 @@ from deformsim.spec.lattice_ops import OPERATIONS
 BUILTIN_SPEC = Path(__file__).parent / "builtin" / "can.yaml"
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".gltf", ".fbx")
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
+PLAUSIBLE_SIZE = (0.005, 5.0)  # metres: a part's largest dimension outside this suggests a wrong ``units``
 
 class Operation(StrictModel):
     """One lattice-point operation: ``op`` names a function of :data:`rig_ops.OPERATIONS`."""
@@ -241,6 +243,24 @@ def _where(data: dict, loc: tuple) -> str:
 
 def _has(node, p) -> bool:
     return (isinstance(node, dict) and p in node) or (isinstance(node, list) and isinstance(p, int) and p < len(node))
+
+
+def units_hint(size: list[float] | tuple[float, ...], spec: Spec) -> str | None:
+    """A hint when the part's size in metres (after ``units``) suggests the wrong unit; None when it is plausible.
+
+    The suggested unit is the one that makes the largest dimension closest to a hand-held part (15 cm).
+    """
+    largest = max(size)
+    if spec.size is not None or PLAUSIBLE_SIZE[0] <= largest <= PLAUSIBLE_SIZE[1] or largest <= 0:
+        return None
+    raw = largest / spec.unit_scale
+    best = min(UNITS, key=lambda u: abs(math.log(raw * UNITS[u] / 0.15)))
+    dims = " x ".join(f"{v:.3g}" for v in size)
+    if best == spec.units:
+        return f"the part is {dims} m (units: {spec.units}): is that its real size? set size: METRES in the spec if not"
+    fixed = " x ".join(f"{v / spec.unit_scale * UNITS[best] * 1000:.3g}" for v in size)
+    return (f"the part is {dims} m with units: {spec.units}; if the mesh is in {best} (then {fixed} mm), "
+            f"set units: {best} in the spec (or size: METRES)")
 
 
 def check_mesh_file(path: str | Path) -> Path:

@@ -1,0 +1,156 @@
+"""Outputs are never silently replaced or mixed, and every output path is checked before any work.
+
+Issue #10, findings 4 (train/report --out, --overwrite), 5 (export, evaluate, spec preview, --out a file) and 7
+(the --real folder rule). A small "generated" dataset is made from the blob images (no Blender).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from deformsim.cli.app import app
+
+pytestmark = pytest.mark.torch
+
+TRAIN = ["--epochs", "1", "--weights", "none", "--no-progress"]
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def one_line_error(res, code: int = 2) -> str:
+    text = res.output.strip()
+    assert res.exit_code == code, res.output
+    assert "Traceback" not in text and len(text.splitlines()) == 1 and text.startswith("error:"), text
+    return text
+
+
+@pytest.fixture(scope="module")
+def dataset(blobs, tmp_path_factory) -> Path:
+    """A generated-dataset layout over the blob images: 12 samples (6 per class) of one camera."""
+    root = tmp_path_factory.mktemp("blobdata") / "data"
+    rows = []
+    for i, r in enumerate(pd.concat([blobs[blobs.y == 0].head(6), blobs[blobs.y == 1].head(6)]).itertuples()):
+        iid = f"{i:06d}_c0"
+        for kind in ("rgba", "black", "green"):
+            (root / "images" / kind).mkdir(parents=True, exist_ok=True)
+            (root / "images" / kind / f"{iid}.png").write_bytes(Path(r.path).read_bytes())
+        rows.append({"id": iid, "sample": i, "camera": 0, "label": r.label, "y": r.y,
+                     **{k: f"images/{k}/{iid}.png" for k in ("rgba", "black", "green")}})
+    pd.DataFrame(rows).to_parquet(root / "manifest.parquet")
+    return root
+
+
+@pytest.fixture(scope="module")
+def config(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("cfg") / "c.yaml"
+    path.write_text("train: {image_size: 64, batch_size: 8}\n")
+    return path
+
+
+@pytest.fixture(scope="module")
+def model(dataset, config, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("model") / "m"
+    res = invoke("train", dataset, "--variant", "black", "--out", out, "--config", config, *TRAIN)
+    assert res.exit_code == 0, res.output
+    return out
+
+
+@pytest.fixture(scope="module")
+def real(blobs, tmp_path_factory) -> Path:
+    """Photos in intact/ and deformed/, one of them in a subfolder of intact/."""
+    root = tmp_path_factory.mktemp("real")
+    for r in pd.concat([blobs[blobs.y == 0].tail(3), blobs[blobs.y == 1].tail(2)]).itertuples():
+        (root / r.label).mkdir(exist_ok=True)
+        (root / r.label / Path(r.path).name).write_bytes(Path(r.path).read_bytes())
+    (root / "intact" / "unsure").mkdir()
+    sorted((root / "intact").glob("*.png"))[0].rename(root / "intact" / "unsure" / "x.png")
+    return root
+
+
+def test_train_refuses_a_model_with_other_settings_and_overwrite_replaces_it_whole(dataset, config, tmp_path):
+    out = tmp_path / "m"
+    assert invoke("train", dataset, "--variant", "black", "--out", out, "--config", config, *TRAIN).exit_code == 0
+    # the same command again: the same settings, so the model is replaced
+    assert invoke("train", dataset, "--variant", "black", "--out", out, "--config", config, *TRAIN).exit_code == 0
+    first = (out / "model.pt").read_bytes()
+    res = invoke("train", dataset, "--variant", "green", "--out", out, "--config", config, *TRAIN)
+    assert "other settings (inputs.variant: 'black' there, 'green' now)" in one_line_error(res)
+    assert "--overwrite" in res.output and (out / "model.pt").read_bytes() == first
+    (out / "stale.txt").write_text("from the old model")
+    res = invoke("train", dataset, "--variant", "green", "--out", out, "--config", config, "--overwrite", *TRAIN)
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in out.iterdir()) == ["inputs.json", "model.pt", "train.json"]
+    assert json.loads((out / "inputs.json").read_text())["inputs"]["variant"] == "green"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m"]  # no staging or old copy left beside it
+
+
+def test_train_refuses_a_file_and_a_foreign_folder(dataset, config, tmp_path):
+    (tmp_path / "file").write_text("x")
+    assert "is a file" in one_line_error(invoke("train", dataset, "--out", tmp_path / "file", "--config", config))
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("keep")
+    for extra in ([], ["--overwrite"]):
+        res = invoke("train", dataset, "--out", tmp_path / "mine", "--config", config, *extra, *TRAIN)
+        assert "holds files but no deformsim model" in one_line_error(res)
+    assert (tmp_path / "mine" / "notes.txt").read_text() == "keep"
+
+
+def test_report_refuses_other_settings_and_overwrite_leaves_nothing_stale(dataset, config, tmp_path):
+    out = tmp_path / "rep"
+    res = invoke("report", dataset, "--out", out, "--config", config, "--variants", "black,green", *TRAIN)
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in (out / "models").iterdir()) == ["black_split", "green_split"]
+    res = invoke("report", dataset, "--out", out, "--config", config, "--variants", "black", *TRAIN)
+    assert "holds a report made with other settings (settings.variants" in one_line_error(res)
+    res = invoke("report", dataset, "--out", out, "--config", config, "--variants", "black", "--overwrite", *TRAIN)
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in (out / "models").iterdir()) == ["black_split"]
+    assert "pca_features_green.png" not in {p.name for p in out.iterdir()}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+    (tmp_path / "file").write_text("x")
+    assert "is a file" in one_line_error(invoke("report", dataset, "--out", tmp_path / "file", *TRAIN))
+
+
+def test_export_checks_its_path_before_reading_the_model(model, tmp_path):
+    (tmp_path / "file").write_text("x")
+    (tmp_path / "dir").mkdir()
+    cases = {tmp_path / "dir": "is a folder", tmp_path / "file" / "m.onnx": "is a file, not a folder",
+             Path("/sys/m.onnx"): "cannot write in /sys"}
+    for target, needle in cases.items():
+        t0 = time.perf_counter()
+        assert needle in one_line_error(invoke("export", tmp_path / "no-model", "--onnx", target))
+        assert time.perf_counter() - t0 < 5
+    assert invoke("export", model, "--onnx", tmp_path / "sub" / "m.onnx").exit_code == 0
+
+
+def test_evaluate_and_predict_check_their_outputs_first(model, real, tmp_path):
+    res = invoke("evaluate", model, "--real", real, "-o", tmp_path)
+    assert "is a folder" in one_line_error(res)
+    res = invoke("predict", model, real, "--csv", tmp_path)
+    assert "is a folder" in one_line_error(res)
+
+
+def test_spec_preview_checks_out_before_rendering(tmp_path):
+    (tmp_path / "file").write_text("x")
+    t0 = time.perf_counter()
+    res = invoke("spec", "preview", "--out", tmp_path / "file" / "keys.png")
+    assert "is a file, not a folder" in one_line_error(res)
+    assert time.perf_counter() - t0 < 5  # no Blender started
+
+
+def test_the_real_folder_rule_is_stated_and_what_was_found_is_listed(model, real):
+    for command in (["evaluate"], ["report"], ["run"]):
+        help_text = " ".join(invoke(*command, "--help").output.replace("│", " ").split())
+        assert "subfolders included" in help_text, command
+    res = invoke("evaluate", model, "--real", real)
+    assert res.exit_code == 0, res.output
+    text = " ".join(res.output.split())
+    assert "3 intact (intact/ 2, intact/unsure/ 1), 2 deformed (deformed/ 2)" in text

@@ -1,0 +1,165 @@
+"""`deformsim generate` never mixes or silently shrinks a dataset; every failure is one line; SIGTERM is Ctrl-C.
+
+Issue #10, findings 1, 4, 5 (full disk), 6 and 7 (flag values). Renders come from fake workers
+(tests/generate/fakes.py): the driver's behaviour is what is tested, without Blender.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from deformsim.config import load_config
+from deformsim.dataset.layout import RENDER_KINDS
+from deformsim.dataset.manifest import read_manifest
+from deformsim.errors import ResourceError, UserError
+from deformsim.generate.stage import generate
+from tests.generate.fakes import use_fakes
+from tests.util import CARTON_SPEC, ROOT
+
+FAKES = Path(__file__).with_name("fakes.py")
+
+
+def fake_cli(*args: str, mode: str = "ok", **kw) -> subprocess.Popen:
+    """``deformsim ARGS`` in a subprocess whose render workers are fakes in ``mode``."""
+    env = {**os.environ, "PYTHONPATH": f"{ROOT}{os.pathsep}{ROOT / 'src'}", "FAKE_WORKER_MODE": mode}
+    return subprocess.Popen([sys.executable, str(FAKES), *args], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kw)
+
+
+def images_on_disk(out: Path) -> dict[str, int]:
+    return {kind: len(list((out / "images" / kind).glob("*.png"))) for kind in RENDER_KINDS}
+
+
+@pytest.fixture
+def carton_part(tmp_path) -> Path:
+    mesh = tmp_path / "part.stl"
+    mesh.write_bytes(b"\x10solid part" + b"\0" * 100)
+    return mesh
+
+
+def cfg_for(mesh: Path | None = None, n: int = 8, **more):
+    over = {"generate.n": n, "generate.preview": 4, **more}
+    if mesh is not None:
+        over.update({"object.mesh": mesh, "object.spec": CARTON_SPEC})
+    return load_config("quick", over)
+
+
+def test_a_changed_mesh_is_refused_and_overwrite_renders_all_anew(monkeypatch, tmp_path, carton_part):
+    use_fakes(monkeypatch)
+    out = tmp_path / "D"
+    generate(cfg_for(carton_part, 4), out, progress=False)
+    carton_part.write_bytes(b"\x80solid wider part" + b"\0" * 300)  # same path, other part
+    with pytest.raises(UserError, match="other contents of its mesh .*part.stl.*--overwrite"):
+        generate(cfg_for(carton_part, 8), out, progress=False)
+    assert len(read_manifest(out)) == 4  # untouched
+    result = generate(cfg_for(carton_part, 8), out, progress=False, overwrite=True)
+    assert result.rendered == 2  # nothing resumed from the old part
+    from PIL import Image
+
+    shades = {Image.open(out / p).getpixel((0, 0))[1] for p in read_manifest(out)["black"]}
+    assert shades == {0x80}  # every image shows the new part
+
+
+def test_a_changed_spec_is_refused(monkeypatch, tmp_path, carton_part):
+    use_fakes(monkeypatch)
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(CARTON_SPEC.read_text())
+    over = {"object.mesh": carton_part, "object.spec": spec, "generate.n": 4}
+    generate(load_config("quick", over), tmp_path / "D", progress=False)
+    spec.write_text(spec.read_text().replace("roughness: [0.3, 0.6]", "roughness: [0.3, 0.7]"))
+    with pytest.raises(UserError, match="other contents of its spec"):
+        generate(load_config("quick", {**over, "generate.n": 8}), tmp_path / "D", progress=False)
+
+
+def test_a_smaller_n_is_refused_and_overwrite_leaves_no_stray_images(monkeypatch, tmp_path):
+    use_fakes(monkeypatch)
+    out = tmp_path / "D"
+    generate(cfg_for(n=16), out, progress=False)
+    with pytest.raises(UserError, match=r"holds 16 images; generate.n 8 would leave 8 of them out.*--n 16 or more"):
+        generate(cfg_for(n=8), out, progress=False)
+    assert len(read_manifest(out)) == 16 and images_on_disk(out) == {k: 16 for k in RENDER_KINDS}
+    generate(cfg_for(n=8), out, progress=False, overwrite=True)
+    assert len(read_manifest(out)) == 8 and images_on_disk(out) == {k: 8 for k in RENDER_KINDS}
+    assert sorted(p.name for p in out.parent.iterdir()) == ["D"]  # nothing of the old dataset beside it
+    generate(cfg_for(n=12), out, progress=False)  # a larger n still extends
+    assert len(read_manifest(out)) == 12
+
+
+def test_a_folder_that_is_no_dataset_is_never_used(monkeypatch, tmp_path):
+    use_fakes(monkeypatch)
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("keep me")
+    for overwrite in (False, True):
+        with pytest.raises(UserError, match="holds files but no deformsim dataset"):
+            generate(cfg_for(), tmp_path / "mine", progress=False, overwrite=overwrite)
+    assert (tmp_path / "mine" / "notes.txt").read_text() == "keep me"
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(UserError, match="is a file"):
+        generate(cfg_for(), tmp_path / "file", progress=False)
+    with pytest.raises(UserError, match="is a file, not a folder"):
+        generate(cfg_for(), tmp_path / "file" / "under", progress=False)
+
+
+def test_a_full_disk_stops_with_one_line(monkeypatch, tmp_path):
+    use_fakes(monkeypatch, mode="full")
+    with pytest.raises(ResourceError, match="No space left on device.*rerun the same command"):
+        generate(cfg_for(), tmp_path / "D", progress=False)
+    proc = fake_cli("generate", "--out", str(tmp_path / "E"), "--n", "8", "--no-progress", mode="full")
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 1, err
+    assert "No space left on device" in err and "Traceback" not in err and "UnidentifiedImageError" not in err
+    assert len([line for line in err.splitlines() if "error" in line]) == 1
+
+
+def test_flag_values_are_reported_as_flags(tmp_path):
+    proc = fake_cli("generate", "--out", str(tmp_path / "D"), "--n", "-5")
+    _, err = proc.communicate(timeout=120)
+    text = " ".join(err.split())
+    assert proc.returncode == 2 and "--n -5" in text and "quick.yaml" not in text and "Traceback" not in err, err
+    assert not (tmp_path / "D").exists()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] if Path(f"/proc/{pid}").exists() else "X"
+    return state not in ("Z", "X")
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+def test_sigterm_stops_workers_removes_partial_files_and_says_so(tmp_path):
+    out = tmp_path / "D"
+    proc = fake_cli("generate", "--out", str(out), "--n", "8", "--workers", "2", "--no-progress", mode="slow")
+    t0 = time.time()
+    while len(list((out / "images" / "rgba").glob(".*partial*"))) < 2:  # both workers are rendering
+        assert proc.poll() is None and time.time() - t0 < 60, proc.communicate()
+        time.sleep(0.1)
+    workers = _children(proc.pid)
+    assert len(workers) == 2
+    proc.send_signal(signal.SIGTERM)  # the driver only, as `kill PID` or a container stop does
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 143, err
+    assert "terminated" in err and "rerun the same command" in err and "Traceback" not in err
+    time.sleep(0.5)
+    assert not any(_alive(pid) for pid in workers)
+    assert not list((out / "images").rglob(".*"))  # partial renders removed

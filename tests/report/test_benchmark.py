@@ -1,0 +1,57 @@
+"""The benchmark page, from a hand-made results dict shaped like run_benchmark's results.json (no training here)."""
+
+import re
+
+import pytest
+
+from deformsim.evaluate.benchmark import aggregate
+from deformsim.evaluate.calibration import reliability
+from deformsim.report.benchmark import write_benchmark_report
+
+HOSTILE = r"<script>alert('$\x$')</script>"  # markup for the page, bad math for matplotlib
+LABELS = [0, 0, 1, 1]
+
+
+def _run(variant, composite_seed, train_seed, acc, f1, prob):
+    return {"variant": variant, "data_seed": 0, "composite_seed": composite_seed, "train_seed": train_seed,
+            "model": f"models/{variant}-{train_seed}",
+            "real": {"accuracy": acc, "f1": f1, "precision": 0.5, "recall": 0.75, "confusion": [[1, 1], [0, 2]]},
+            "synthetic": {"accuracy": 0.9, "f1": 0.88}, "real_predictions": prob}
+
+
+@pytest.fixture
+def results():
+    runs = [_run("black", None, 0, 0.5, 0.4, [0.1, 0.6, 0.7, 0.2]), _run("black", None, 1, 0.75, 0.6, [0.2, 0.4, 0.9, 0.8]),
+            _run(HOSTILE, 0, 0, 0.8, 0.7, [0.1, 0.1, 0.9, 0.9]), _run(HOSTILE, 1, 0, 0.9, 0.8, [0.3, 0.2, 0.6, 0.7])]
+    return {"created": "2025-01-01T00:00:00+00:00", "real_dir": "/photos", "real_images": 4,
+            "real_paths": ["/photos/a.jpg", "/photos/b.jpg", "/photos/c.jpg", "/photos/d.jpg"], "real_labels": LABELS,
+            "majority_baseline": 0.5, "adapt": None, "seconds": 12.0,
+            "plan": {"data_seeds": 1, "composite_seeds": 2, "train_seeds": 2, "variants": ["black", HOSTILE]},
+            "settings": {"train": {"epochs": 15}}, "variants": aggregate(runs), "runs": runs}
+
+
+def test_benchmark_report_shows_mean_and_std_of_every_variant(results, tmp_path):
+    path = write_benchmark_report(results, tmp_path / "bench")
+    assert path == tmp_path / "bench" / "report.html" and path.is_file()
+    html = path.read_text()
+    assert "62.5 ± 17.7" in html  # black accuracy: mean 0.625, sample std 0.177
+    for v, s in results["variants"].items():
+        for k in ("accuracy", "f1", "precision", "recall", "synthetic_accuracy"):
+            assert f"{100 * s[f'{k}_mean']:.1f} ± {100 * s[f'{k}_std']:.1f}" in html
+        pooled = [p for r in results["runs"] if r["variant"] == v for p in r["real_predictions"]]
+        assert f"{reliability(LABELS * 2, pooled)['ece']:.3f}" in html
+    assert "<td>black</td>" in html and html.count("<tr title=") == 4  # every run in the runs table
+    assert "85.0%" in html  # the hero: the best mean real accuracy
+    # the hostile name is shown, escaped, and never as markup
+    assert "<script" not in html and r"&lt;script&gt;alert(&#x27;$\x$&#x27;)&lt;/script&gt;" in html
+    # self-contained: bar chart and reliability diagrams inlined
+    assert html.count("data:image/png;base64,") == 2
+    refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)""", html)
+    assert refs and all(r.startswith("data:") for r in refs)
+
+
+def test_benchmark_report_without_real_labels_skips_the_reliability_diagram(results, tmp_path):
+    del results["real_labels"]
+    html = write_benchmark_report(results, tmp_path).read_text()
+    assert "No real labels" in html and "ECE" not in html
+    assert html.count("data:image/png;base64,") == 1

@@ -1,0 +1,146 @@
+"""Identity by content (issue #10, finding 1): datasets and stage stamps follow the bytes of their inputs.
+
+No Blender: the mesh probe is faked, renders come from fake workers (tests/generate/fakes.py), and the
+composite and report stages are replaced by fakes that write only their outputs.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+from deformsim.config import load_config
+from deformsim.generate import stage as gen_stage
+from deformsim.generate.stage import data_name
+from deformsim.identity import file_digest, files_digest, folder_digest
+from deformsim.pipeline import run
+from tests.generate.fakes import use_fakes
+from tests.util import CARTON_SPEC
+
+COLOUR = "color: [[0.55, 0.55, 0.55], [0.98, 0.98, 0.98]]"
+
+
+def copy_keeping_times(src: Path, dst: Path) -> None:
+    """``cp -p src dst``: dst gets src's bytes and src's modification time."""
+    shutil.copyfile(src, dst)
+    shutil.copystat(src, dst)
+
+
+def same_size_pair(tmp_path: Path) -> tuple[Path, Path]:
+    a, b = tmp_path / "a.bin", tmp_path / "b.bin"
+    a.write_bytes(b"A" * 64)
+    b.write_bytes(b"B" * 64)
+    os.utime(b, ns=(a.stat().st_atime_ns, a.stat().st_mtime_ns))
+    return a, b
+
+
+def test_digests_follow_bytes_not_size_or_time(tmp_path):
+    a, b = same_size_pair(tmp_path)
+    before, folder_before = file_digest(a), folder_digest(tmp_path)
+    copy_keeping_times(b, a)  # same size, same mtime, other bytes
+    assert a.stat().st_mtime_ns == b.stat().st_mtime_ns
+    assert file_digest(a) == file_digest(b) != before
+    assert folder_digest(tmp_path) != folder_before
+    assert files_digest([a], tmp_path) != files_digest([b], tmp_path)  # names count too
+
+
+@pytest.fixture
+def part(tmp_path) -> tuple[Path, Path]:
+    """A mesh file (never read: the probe is faked) and a copy of the carton spec."""
+    mesh, spec = tmp_path / "part.stl", tmp_path / "runspec.yaml"
+    mesh.write_bytes(b"solid part\n" + b"\0" * 200)
+    spec.write_text(CARTON_SPEC.read_text())
+    return mesh, spec
+
+
+def test_dataset_name_follows_mesh_and_spec_contents(part):
+    mesh, spec = part
+    cfg = load_config("quick", {"object.mesh": mesh, "object.spec": spec})
+    first = data_name(cfg)
+    spec.write_text(spec.read_text() + "\n# a comment changes nothing rendered\n")
+    assert data_name(cfg) == first
+    spec.write_text(spec.read_text().replace(COLOUR, "color: [[0.1, 0.1, 0.1], [0.98, 0.98, 0.98]]"))
+    second = data_name(cfg)
+    assert second != first
+    mesh.write_bytes(b"solid wider part\n" + b"\1" * 200)
+    assert data_name(cfg) not in (first, second)
+
+
+@pytest.fixture
+def fake_stages(monkeypatch):
+    """Stages that write only their outputs; the list of stages each call ran."""
+    from deformsim.composite import stage as comp_stage
+    from deformsim.evaluate import experiments
+    from deformsim.report import html
+
+    calls: list[str] = []
+    real_generate = gen_stage.generate
+
+    def generate(*args, **kwargs):
+        calls.append("generate")
+        return real_generate(*args, **kwargs)
+
+    def composite(data, cfg, name, seed, progress=True):
+        calls.append(f"composite:{name}")
+        (data / "variants" / name).mkdir(parents=True, exist_ok=True)
+        (data / "variants" / name / "manifest.parquet").write_text("fake")
+
+    def run_experiments(data, cfg, out, real_dir=None, progress=True):
+        calls.append("report")
+        (Path(out) / "models").mkdir(parents=True)
+        return {}
+
+    def write_report(metrics, out):
+        (Path(out) / "report.html").write_text("report")
+        return Path(out) / "report.html"
+
+    use_fakes(monkeypatch)
+    monkeypatch.setattr(gen_stage, "generate", generate)
+    monkeypatch.setattr(comp_stage, "composite", composite)
+    monkeypatch.setattr(experiments, "run_experiments", run_experiments)
+    monkeypatch.setattr(html, "write_report", write_report)
+    return calls
+
+
+def test_run_redoes_what_depends_on_an_edited_input(tmp_path, part, fake_stages):
+    mesh, spec = part
+    real = tmp_path / "real"
+    for name in ("intact/a.bmp", "intact/b.bmp", "deformed/c.bmp"):
+        (real / name).parent.mkdir(parents=True, exist_ok=True)
+        (real / name).write_bytes(name.encode() * 20)
+    cfg = load_config("quick", {"object.mesh": mesh, "object.spec": spec, "generate.n": 8})
+    out = tmp_path / "run"
+    first = run(cfg, out, real=real, progress=False)
+    assert fake_stages == ["generate", "composite:procedural", "report"]
+    again = run(cfg, out, real=real, progress=False)
+    assert again.skipped == ["generate", "composite:procedural", "report"]
+
+    spec.write_text(spec.read_text().replace(COLOUR, "color: [[0.1, 0.1, 0.1], [0.98, 0.98, 0.98]]"))
+    edited = run(cfg, out, real=real, progress=False)
+    assert edited.skipped == [] and edited.data != first.data  # a new dataset, never a mix
+
+    copy_keeping_times(real / "intact" / "b.bmp", real / "intact" / "a.bmp")  # same size and time
+    photos = run(cfg, out, real=real, progress=False)
+    assert photos.skipped == ["generate", "composite:procedural"] and "report" in photos.seconds
+
+    mesh.write_bytes(b"solid wider part\n" + b"\1" * 200)
+    remeshed = run(cfg, out, real=real, progress=False)
+    assert remeshed.skipped == [] and remeshed.data not in (first.data, edited.data)
+    assert sorted(p.name for p in out.iterdir() if p.name.startswith("data-")) == sorted(
+        {first.data.name, edited.data.name, remeshed.data.name})
+    assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == []  # no staging left
+
+
+def test_run_redoes_composite_when_a_background_photo_changes(tmp_path, fake_stages):
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    (photos / "a.jpg").write_bytes(b"a" * 100)
+    (photos / "b.jpg").write_bytes(b"b" * 100)
+    cfg = load_config("quick", {"composite.backgrounds": photos, "composite.variants": ["black", "backgrounds"]})
+    run(cfg, tmp_path / "run", progress=False)
+    copy_keeping_times(photos / "b.jpg", photos / "a.jpg")
+    again = run(cfg, tmp_path / "run", progress=False)
+    assert again.skipped == ["generate"] and "composite:backgrounds" in again.seconds
