@@ -21,7 +21,7 @@ from deformsim.dataset.manifest import read_manifest
 from deformsim.errors import ResourceError, UserError
 from deformsim.generate.stage import generate
 from tests.generate.fakes import use_fakes
-from tests.util import CARTON_SPEC, ROOT
+from tests.util import CARTON_SPEC, ROOT, child_pids
 
 FAKES = Path(__file__).with_name("fakes.py")
 
@@ -135,18 +135,6 @@ def _alive(pid: int) -> bool:
     return state not in ("Z", "X")
 
 
-def _children(pid: int) -> list[int]:
-    out = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            out.append(int(stat.parent.name))
-    return out
-
-
 def test_sigterm_stops_workers_removes_partial_files_and_says_so(tmp_path):
     out = tmp_path / "D"
     proc = fake_cli("generate", "--out", str(out), "--n", "8", "--workers", "2", "--no-progress", mode="slow")
@@ -154,7 +142,7 @@ def test_sigterm_stops_workers_removes_partial_files_and_says_so(tmp_path):
     while len(list((out / "images" / "rgba").glob(".*partial*"))) < 2:  # both workers are rendering
         assert proc.poll() is None and time.time() - t0 < 60, proc.communicate()
         time.sleep(0.1)
-    workers = _children(proc.pid)
+    workers = child_pids(proc.pid)
     assert len(workers) == 2
     proc.send_signal(signal.SIGTERM)  # the driver only, as `kill PID` or a container stop does
     _, err = proc.communicate(timeout=30)

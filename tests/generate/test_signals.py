@@ -10,8 +10,8 @@ import time
 
 import pytest
 
-from tests.generate.test_refusals import _alive, _children
-from tests.util import ROOT
+from tests.generate.test_refusals import _alive
+from tests.util import ROOT, child_pids
 
 
 @pytest.mark.blender
@@ -26,7 +26,7 @@ def test_sigterm_stops_blender_workers_at_once(tmp_path):
     while not all(p.is_file() and "ready on" in p.read_text(errors="replace") for p in logs):
         assert proc.poll() is None and time.time() - t0 < 300, proc.communicate()
         time.sleep(0.2)
-    workers = _children(proc.pid)
+    workers = child_pids(proc.pid)
     assert len(workers) == 2
     t_term = time.time()
     proc.send_signal(signal.SIGTERM)  # the driver only

@@ -20,7 +20,7 @@ from deformsim.dataset.layout import RENDER_KINDS, Layout
 from deformsim.dataset.manifest import read_manifest, stable_view
 from deformsim.errors import UserError
 from deformsim.generate.stage import generate
-from tests.util import ROOT, TINY
+from tests.util import ROOT, TINY, child_pids
 
 
 def cli(*args: str) -> list[str]:
@@ -97,18 +97,6 @@ def _wait_for(predicate, timeout: float = 300) -> None:
         time.sleep(0.1)
 
 
-def _children(pid: int) -> list[int]:
-    out = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            out.append(int(stat.parent.name))
-    return out
-
-
 def test_killed_run_resumes_to_the_uninterrupted_result(tiny_dataset, tmp_path):
     out = tmp_path / "resumed"
     proc = subprocess.Popen(cli(*tiny_args(out)), cwd=ROOT, env=env(), start_new_session=True,
@@ -130,7 +118,7 @@ def test_worker_killed_mid_run_has_its_sample_retried(tmp_path):
     proc = subprocess.Popen(cli(*tiny_args(out, 12)), cwd=ROOT, env=env(), stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     _wait_for(lambda: (out / "samples" / "000000.json").exists())
-    workers = _children(proc.pid)
+    workers = child_pids(proc.pid)
     assert workers, "no worker process found"
     for pid in workers:
         os.kill(pid, signal.SIGKILL)
