@@ -53,6 +53,14 @@ def stable_int(iid: str) -> int:
     return int.from_bytes(hashlib.blake2b(iid.encode(), digest_size=8).digest(), "little")
 
 
+SETTINGS_FILE = "composite.json"
+
+
+def variant_settings(name: str, seed: int, cfg: CompositeConfig) -> dict:
+    """What a variant's ``composite.json`` records: its name, seed and compositing settings."""
+    return {"name": name, "seed": seed, **cfg.model_dump(mode="json")}
+
+
 def default_name(cfg: CompositeConfig) -> str:
     return "backgrounds" if cfg.backgrounds else "procedural"
 
@@ -91,7 +99,7 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
                 r["background"] = str(Path(r["background"]).relative_to(base))
         df = pd.DataFrame(rows).sort_values("id").reset_index(drop=True)
         df.to_parquet(tmp / VARIANT_MANIFEST, index=False)
-        write_json(tmp / "composite.json", {"name": name, "seed": seed, **cfg.model_dump(mode="json")})
+        write_json(tmp / SETTINGS_FILE, variant_settings(name, seed, cfg))
         final = _swap(tmp, layout.variant_dir(name), staging)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -5,7 +5,7 @@ training (grouped by scene) and on a folder of labelled real photos. Runs differ
 generate seed (``data_seeds``), in which background photo lands behind which render (``composite_seeds``)
 and in the training seed (``train_seeds``); the rendered ``black`` variant has no background draw. The real
 labels are read only to score predictions: training, its validation split and the 0.5 threshold never see
-them. Unlabelled photos given as ``adapt`` may adapt the model (their folder structure is never read).
+them. Unlabelled photos given as ``adapt`` may adapt the model (whatever their folders, no label is read).
 """
 
 from __future__ import annotations
@@ -91,7 +91,6 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     Datasets live in ``datasets`` (default ``out``), named by their settings, so benchmarks of other training or
     compositing settings reuse the renders; composited variants are named by their settings too.
     """
-    from deformsim.composite.stage import composite
     from deformsim.dataset.real import real_table
     from deformsim.dataset.variants import variant_table
     from deformsim.evaluate.experiments import grouped_split
@@ -105,8 +104,8 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     t_start = time.perf_counter()
     out = Path(out)
     real_df = real_table(real)
-    photo_variants = [v for v in plan.variants if v not in RENDERED]
-    if photo_variants and cfg.composite.backgrounds is None and "procedural" not in photo_variants:
+    photo_variants = [v for v in plan.variants if v not in (*RENDERED, "procedural")]
+    if photo_variants and cfg.composite.backgrounds is None:
         raise UserError(f"variants {', '.join(photo_variants)} need composite.backgrounds (a photo folder)")
     store = Path(datasets or out)
     folders = []
@@ -114,21 +113,20 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
         cfg_d = cfg.model_copy(deep=True)
         cfg_d.generate.seed = cfg.generate.seed + d
         folder = store / data_name(cfg_d)
-        prepare(cfg_d, folder)  # every input check before any work
-        folders.append((cfg_d, folder))
+        folders.append((cfg_d, folder, prepare(cfg_d, folder)))  # every input check before any work
 
     runs: list[dict] = []
     total = sum(len(_draws(v, plan)) for v in plan.variants) * plan.data_seeds * plan.train_seeds
-    for cfg_d, folder in folders:
+    for cfg_d, folder, prepared in folders:
         log.info("dataset seed %d: %s", cfg_d.generate.seed, folder)
-        generate(cfg_d, folder, progress=progress)
+        generate(cfg_d, folder, progress=progress, prepared=prepared)
         for variant in plan.variants:
             for c in _draws(variant, plan):
                 name = variant
                 if variant not in RENDERED:
                     comp = cfg.composite if variant != "procedural" else cfg.composite.model_copy(update={"backgrounds": None})
                     name = f"{variant}-{digest(comp.model_dump(mode='json'))[:8]}-seed{c}"
-                    _composite_once(composite, folder, comp, name, c, progress)
+                    _composite_once(folder, comp, name, c, progress)
                 table = variant_table(folder, name)
                 for k in range(plan.train_seeds):
                     train_cfg = cfg.train.model_copy(update={"seed": cfg.train.seed + k})
@@ -174,10 +172,11 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     return results
 
 
-def _composite_once(composite, folder: Path, comp, name: str, seed: int, progress: bool) -> None:
+def _composite_once(folder: Path, comp, name: str, seed: int, progress: bool) -> None:
     """Composite the variant unless it exists with the same settings (its images keep their cached features)."""
-    stamp = folder / "variants" / name / "composite.json"
-    want = {"name": name, "seed": seed, **comp.model_dump(mode="json")}
-    if stamp.is_file() and json.loads(stamp.read_text()) == want:
+    from deformsim.composite.stage import SETTINGS_FILE, composite, variant_settings
+
+    stamp = folder / "variants" / name / SETTINGS_FILE
+    if stamp.is_file() and json.loads(stamp.read_text()) == variant_settings(name, seed, comp):
         return
     composite(folder, comp, name, seed, progress=progress)
