@@ -68,7 +68,6 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     """
     from deformsim.composite.stage import composite
     from deformsim.dataset.images import images_in
-    from deformsim.dataset.real import real_table
     from deformsim.generate.stage import generate
 
     out = check_folder_target(out, "--out")
@@ -76,9 +75,7 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     identity = data_identity(cfg, spec)
     data = out / f"data-{digest(identity)}"
     prepared = prepare(cfg, data, overwrite, spec)  # every input check before any work
-    real_id = None
-    if real is not None:
-        real_id = files_digest(list(real_table(real)["path"]), real)
+    real_id = real_digest(real)
     backgrounds = cfg.composite.backgrounds
     if backgrounds is not None and not Path(backgrounds).is_dir():
         raise UserError(f"backgrounds folder not found: {backgrounds}")
@@ -123,6 +120,13 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     return result
 
 
+def real_digest(real: Path | None) -> str | None:
+    """A folder of labelled real photos by content and place (the folder gives the label); None without one."""
+    from deformsim.dataset.real import real_table
+
+    return files_digest(list(real_table(real)["path"]), real) if real is not None else None
+
+
 def images_digest(table, root: Path) -> str:
     """A training table's images by content, names (relative to ``root``) and labels."""
     return digest([files_digest(list(table["path"]), root), [int(y) for y in table["y"]]])
@@ -162,7 +166,6 @@ def make_report(data: Path, cfg, out: Path, real: Path | None = None, overwrite:
     """
     from deformsim.dataset.layout import Layout
     from deformsim.dataset.manifest import read_manifest
-    from deformsim.dataset.real import real_table
     from deformsim.dataset.variants import VARIANT_MANIFEST
     from deformsim.evaluate.experiments import run_experiments
     from deformsim.report.html import write_report
@@ -171,7 +174,7 @@ def make_report(data: Path, cfg, out: Path, real: Path | None = None, overwrite:
     read_manifest(data)  # a clear error when ``data`` is not a dataset
     layout = Layout(data)
     manifests = [layout.manifest, *sorted((layout.root / "variants").glob(f"*/{VARIANT_MANIFEST}"))]
-    real_id = files_digest(list(real_table(real)["path"]), real) if real is not None else None
+    real_id = real_digest(real)
     identity = {"settings": cfg.model_dump(mode="json"), "inputs": {"data": files_digest(manifests, data),
                                                                     "real": real_id}}
     claim(out, "report", identity, overwrite)
