@@ -26,6 +26,12 @@ def test_overrides_apply_and_none_is_ignored():
         ({"camera.polar": [70, 50]}, "camera.polar"),
         ({"generate.n": 10}, "multiple of the 4 cameras"),
         ({"deform.families": [4, 2]}, "deform.families"),
+        ({"render.adaptive_threshold": 0}, "render.adaptive_threshold"),
+        ({"render.max_bounces": -1}, "render.max_bounces"),
+        ({"render.clamp_indirect": -2}, "render.clamp_indirect"),
+        ({"render.denoise_prefilter": "slow"}, "render.denoise_prefilter"),
+        ({"render.denoise_input": "rgb_normal"}, "render.denoise_input"),
+        ({"render.tile_size": 4}, "render.tile_size"),
     ],
 )
 def test_bad_values_are_named(overrides, needle):

@@ -49,6 +49,13 @@ class Engine:
             cfg = cfg.model_copy(update={"backgrounds": Path(backgrounds)})
         return composite(Path(data), cfg, name, seed, progress=self.progress)
 
+    def export_data(self, data: str | Path, out: str | Path, format: str, variant: str | None = None,
+                    overwrite: bool = False):
+        """Export a variant of ``data`` as ``imagefolder``, ``coco`` or ``anomalib`` into ``out``; an ExportResult."""
+        from deformsim.export import export_data
+
+        return export_data(Path(data), Path(out), format, variant, overwrite=overwrite, progress=self.progress)
+
     def train(self, data: str | Path, out: str | Path, variant: str | None = None, adapt: str | Path | None = None,
               overwrite: bool = False):
         """Train on a dataset variant or a folder of intact/ and deformed/ photos; a :class:`TrainResult`.
@@ -57,9 +64,10 @@ class Engine:
         of other settings in ``out`` is refused unless ``overwrite``.
         """
         from deformsim.dataset.tables import load_table
+        from deformsim.learn.targets import with_dense_paths
         from deformsim.pipeline import train_model
 
-        table = load_table(Path(data), variant, self.config.train.variants[0])
+        table = with_dense_paths(load_table(Path(data), variant, self.config.train.variants[0]), Path(data))
         return train_model(table, self.config.train, Path(out), Path(data), variant or self.config.train.variants[0],
                            overwrite=overwrite,
                            progress=self.progress, adapt=Path(adapt) if adapt is not None else None)

@@ -119,6 +119,28 @@ class RenderConfig(_Model):
         description="render the black and green variants with Cycles instead of compositing them over the "
         "exact alpha (identical for opaque objects, 3x slower)",
     )
+    dense: bool = Field(False, description="also write mask, depth, normal, deformation and region maps per image")
+    region_threshold_mm: float = Field(1.0, gt=0, description="deformation (mm) from which a pixel is in the region")
+    # Cycles quality/speed (bench/render_quality.py measures them); defaults are Blender's, max_bounces 6.
+    adaptive: bool = Field(False, description="adaptive sampling: stop pixels whose noise is below the threshold")
+    adaptive_threshold: float = Field(0.01, gt=0, le=1, description="adaptive sampling noise threshold")
+    adaptive_min_samples: int = Field(0, ge=0, le=4096, description="samples before adaptive stopping; 0 = automatic")
+    max_bounces: int = Field(6, ge=0, le=1024, description="light-path bounces in total")
+    diffuse_bounces: int = Field(4, ge=0, le=1024)
+    glossy_bounces: int = Field(4, ge=0, le=1024)
+    transmission_bounces: int = Field(12, ge=0, le=1024)
+    transparent_bounces: int = Field(8, ge=0, le=1024)
+    volume_bounces: int = Field(0, ge=0, le=1024)
+    caustics_reflective: bool = True
+    caustics_refractive: bool = True
+    clamp_direct: float = Field(0.0, ge=0, description="clamp direct light samples to this value; 0 = off")
+    clamp_indirect: float = Field(10.0, ge=0, description="clamp indirect light samples to this value; 0 = off")
+    denoise_input: Literal["rgb", "rgb_albedo", "rgb_albedo_normal"] = Field(
+        "rgb_albedo_normal", description="guide passes given to the denoiser"
+    )
+    denoise_prefilter: Literal["none", "fast", "accurate"] = Field("accurate", description="denoising of the guides")
+    denoise_quality: Literal["high", "balanced", "fast"] = "high"
+    tile_size: int = Field(2048, ge=8, le=8192, description="Cycles tile size in pixels")
 
 
 class GenerateConfig(_Model):
@@ -176,6 +198,7 @@ class CompositeConfig(_Model):
     backgrounds: Path | None = Field(None, description="folder of photos; None = procedural backgrounds")
     scale_jitter: Range = (1.0, 1.3)
     flip: bool = True
+    flip_part: float = Field(0.0, ge=0, le=1, description="probability of mirroring the part (and its maps) left-right")
     workers: int = Field(0, ge=0)
     variants: list[str] = ["black", "backgrounds"]
     balance_backgrounds: bool = Field(
@@ -232,6 +255,10 @@ class TrainConfig(_Model):
     )
     adapt_epochs: int = Field(5, ge=1, description="selftrain: epochs on synthetic + pseudo-labelled photos")
     pseudo_confidence: float = Field(0.9, gt=0.5, lt=1, description="selftrain: keep photos predicted this surely")
+    target: Literal["label", "severity", "family", "localise"] = Field(
+        "label", description="label: intact/deformed (the paper); on dense datasets also severity (max displacement, "
+        "mm), family (deformation kinds, multi-label) or localise (deformed-region mask)"
+    )
 
 
 class Config(_Model):

@@ -5,13 +5,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from deformsim.composite.framing import crop_window, object_box, reframe
+from deformsim.composite.framing import crop_window, frame_matrix, object_box, warp
 
 
 def _disc(h=128, w=128, cx=40, cy=70, r=12):
     yy, xx = np.mgrid[0:h, 0:w]
     alpha = ((xx - cx) ** 2 + (yy - cy) ** 2 <= r * r).astype(np.float32)
     return np.repeat(alpha[..., None], 3, axis=2) * 200.0, alpha
+
+
+def reframe(fg, alpha, fill_range, offset, rng):
+    m, info = frame_matrix(alpha, fill_range, offset, rng)
+    return warp(fg, m), np.clip(warp(alpha, m), 0, 1), info
 
 
 def test_object_box_of_an_empty_alpha_is_none():

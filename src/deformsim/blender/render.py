@@ -19,7 +19,7 @@ from PIL import Image
 
 from deformsim.atomic import atomic_path
 from deformsim.blender import cameras as cams
-from deformsim.blender import materials
+from deformsim.blender import dense, materials
 from deformsim.blender.pose import set_pose
 from deformsim.blender.rig import Rig
 from deformsim.blender.world import World
@@ -88,19 +88,27 @@ def apply_state(ctx: RenderContext, p: SampleParams) -> None:
     ctx.world.set(p.hdri, p.hdri_rotation, p.hdri_strength)
 
 
-def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> list[float]:
-    """Render every camera of sample ``p``; return Cycles' render seconds per camera."""
+def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[list[float], list[dict] | None]:
+    """Render every camera of sample ``p``; return Cycles' render seconds per camera and, with ``render.dense``,
+    each image's dense manifest columns (the maps are written beside the images)."""
     if len(p.cameras) != len(ctx.cameras):
         raise ValueError(f"sample {p.index} has {len(p.cameras)} cameras, the scene {len(ctx.cameras)}")
     apply_state(ctx, p)
     scene = ctx.scene
-    seconds = []
+    seconds, rows = [], None
+    if ctx.cfg.render.dense:
+        dense.prepare(scene, ctx.obj, ctx.spec, p)
+        sample_cols = {"max_disp_mm": dense.max_displacement_mm(ctx.obj), **dense.family_flags(ctx.spec, p)}
+        rows = []
     for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
         cams.place(cam, cp, ctx.target, ctx.camera_scale)
         scene.camera = cam
         iid = image_id(p.index, c)
         rgba, t = _render_to_array(scene, layout.image("rgba", iid))
         _save(layout.image("rgba", iid), rgba)
+        if rows is not None:
+            threshold = ctx.cfg.render.region_threshold_mm
+            rows.append({**sample_cols, **dense.write_maps(scene, cam, rgba[..., 3], layout, iid, threshold)})
         for kind, color in BACKGROUNDS.items():
             if ctx.cfg.render.render_backgrounds:
                 img, dt = _render_background(ctx, layout.image(kind, iid), color)
@@ -110,7 +118,7 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> list[f
                 img = over_color(rgba, color)
             _save(layout.image(kind, iid), img)
         seconds.append(t)
-    return seconds
+    return seconds, rows
 
 
 def _render_background(ctx: RenderContext, target: Path, color: tuple[int, int, int]) -> tuple[np.ndarray, float]:

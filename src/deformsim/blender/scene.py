@@ -46,14 +46,9 @@ def configure_cycles(scene, render_cfg: RenderConfig, threads: int = 0) -> str:
         raise UserError(f"render.device=gpu but no GPU was found (tried {', '.join(GPU_BACKENDS)})")
     cy.device = "GPU" if gpu else "CPU"
     cy.samples = render_cfg.samples
-    cy.use_adaptive_sampling = False
     cy.seed = SEED
     cy.use_animated_seed = False
-    cy.use_denoising = render_cfg.denoise
-    if render_cfg.denoise:
-        cy.denoiser = "OPENIMAGEDENOISE"
-        cy.denoising_use_gpu = bool(gpu)
-    cy.max_bounces = 6
+    _quality(cy, render_cfg, bool(gpu))
     scene.render.resolution_x = scene.render.resolution_y = render_cfg.resolution
     scene.render.resolution_percentage = 100
     scene.render.film_transparent = True
@@ -76,3 +71,29 @@ def configure_cycles(scene, render_cfg: RenderConfig, threads: int = 0) -> str:
     scene.view_settings.look = "None"
     threads_txt = f"{threads} threads" if threads else "auto threads"
     return gpu or f"CPU ({threads_txt})"
+
+
+def _quality(cy, r: RenderConfig, gpu: bool) -> None:
+    """Sampling, light paths, clamping, denoiser and tiles: every speed/quality setting of ``r``."""
+    cy.use_adaptive_sampling = r.adaptive
+    cy.adaptive_threshold = r.adaptive_threshold
+    cy.adaptive_min_samples = r.adaptive_min_samples
+    cy.max_bounces = r.max_bounces
+    cy.diffuse_bounces = r.diffuse_bounces
+    cy.glossy_bounces = r.glossy_bounces
+    cy.transmission_bounces = r.transmission_bounces
+    cy.transparent_max_bounces = r.transparent_bounces
+    cy.volume_bounces = r.volume_bounces
+    cy.caustics_reflective = r.caustics_reflective
+    cy.caustics_refractive = r.caustics_refractive
+    cy.sample_clamp_direct = r.clamp_direct
+    cy.sample_clamp_indirect = r.clamp_indirect
+    cy.use_denoising = r.denoise
+    if r.denoise:
+        cy.denoiser = "OPENIMAGEDENOISE"
+        cy.denoising_use_gpu = gpu
+        cy.denoising_input_passes = r.denoise_input.upper()
+        cy.denoising_prefilter = r.denoise_prefilter.upper()
+        cy.denoising_quality = r.denoise_quality.upper()
+    cy.use_auto_tile = True
+    cy.tile_size = r.tile_size

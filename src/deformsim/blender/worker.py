@@ -4,8 +4,10 @@ JSON lines on stdin, one reply line each on the real stdout (Blender's own print
 
 - ``{"setup": {"config": {...}, "spec_path": str|null, "out": str, "threads": int}}`` builds the scene
   once -> ``{"ready": true, "device": str, "camera_scale": float, "object_size": [dx, dy, dz], "pid": int}``
-- ``{"render": SampleParams.to_dict()}`` -> ``{"done": index, "render_seconds": [...]}`` or
+- ``{"render": SampleParams.to_dict()}`` -> ``{"done": index, "render_seconds": [...], "dense": [{...}]|null}``
+  (``dense``: each image's dense-map manifest columns, with ``render.dense``) or
   ``{"error": index, "message": str, "traceback": str}`` (the worker lives on)
+- ``{"configure": RenderConfig dict}`` -> ``{"configured": device}``: new Cycles settings, same scene
 - ``{"quit": true}`` -> exit 0 (so does the end of stdin)
 """
 
@@ -95,9 +97,17 @@ def render(ctx, layout, params: dict) -> dict:
     from deformsim.sampling import SampleParams
 
     p = SampleParams.from_dict(params)
-    seconds = render_sample(ctx, p, layout)
+    seconds, dense = render_sample(ctx, p, layout)
     bpy.data.orphans_purge(do_local_ids=True, do_linked_ids=True, do_recursive=True)
-    return {"done": p.index, "render_seconds": seconds}
+    return {"done": p.index, "render_seconds": seconds, "dense": dense}
+
+
+def configure(ctx, render: dict) -> dict:
+    from deformsim.blender.scene import configure_cycles
+
+    ctx.cfg.render = render  # validated by the config model
+    r = ctx.scene.render
+    return {"configured": configure_cycles(ctx.scene, ctx.cfg.render, r.threads if r.threads_mode == "FIXED" else 0)}
 
 
 def main() -> int:
@@ -123,6 +133,8 @@ def main() -> int:
                 return 1
             _log(f"ready on {ready['device']}")
             reply(ready)
+        elif "configure" in msg and ctx is not None:
+            reply(configure(ctx, msg["configure"]))
         elif "render" in msg:
             index = msg["render"].get("index")
             try:

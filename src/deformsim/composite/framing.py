@@ -2,8 +2,9 @@
 
 The object's box comes from its alpha. A square window is chosen so that the box's longer side fills
 ``fill`` of the window's side, centred on the box with a random offset, kept inside the render; the
-window is resized back to the render's size. Only the foreground and its alpha are cropped, so the
-background photo behind them stays at full sharpness.
+window is resized back to the render's size. Only the foreground, its alpha and its dense maps are cropped
+(the maps with nearest-neighbour sampling, so they stay exact labels), so the background photo behind them stays
+at full sharpness.
 """
 
 from __future__ import annotations
@@ -33,18 +34,28 @@ def crop_window(box: tuple[int, int, int, int], shape: tuple[int, int], fill: fl
     return x, y, float(side)
 
 
-def reframe(fg: np.ndarray, alpha: np.ndarray, fill_range: tuple[float, float], offset: float,
-            rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Premultiplied ``fg`` (H, W, 3) and ``alpha`` (H, W) cropped around the object and resized to (H, W)."""
+def frame_matrix(alpha: np.ndarray, fill_range: tuple[float, float], offset: float,
+                 rng: np.random.Generator) -> tuple[np.ndarray | None, dict]:
+    """The 2x3 affine map from the render to the framed output (None: leave as rendered) and its record."""
     h, w = alpha.shape
     fill = float(rng.uniform(*fill_range))
     box = object_box(alpha)
     if box is None:
-        return fg, alpha, {"frame_fill": fill, "frame_x": 0.0, "frame_y": 0.0, "frame_side": float(min(h, w))}
+        return None, {"frame_fill": fill, "frame_x": 0.0, "frame_y": 0.0, "frame_side": float(min(h, w))}
     x, y, side = crop_window(box, (h, w), fill, offset, rng)
     # an affine map from the window to the output: exact for fractional windows, no double resampling
     m = np.array([[w / side, 0, -x * w / side], [0, h / side, -y * h / side]], np.float32)
-    interp = cv2.INTER_LINEAR if side < min(h, w) else cv2.INTER_AREA
-    fg2 = cv2.warpAffine(fg.astype(np.float32), m, (w, h), flags=interp, borderMode=cv2.BORDER_CONSTANT)
-    a2 = cv2.warpAffine(alpha.astype(np.float32), m, (w, h), flags=interp, borderMode=cv2.BORDER_CONSTANT)
-    return fg2, np.clip(a2, 0, 1), {"frame_fill": fill, "frame_x": x, "frame_y": y, "frame_side": side}
+    return m, {"frame_fill": fill, "frame_x": x, "frame_y": y, "frame_side": side}
+
+
+def warp(img: np.ndarray, m: np.ndarray | None, nearest: bool = False) -> np.ndarray:
+    """``img`` through the framing map ``m``: area/linear for pictures, nearest for label and measurement maps."""
+    if m is None:
+        return img
+    h, w = img.shape[:2]
+    if nearest:
+        interp = cv2.INTER_NEAREST
+    else:
+        interp = cv2.INTER_LINEAR if w / m[0, 0] < min(h, w) else cv2.INTER_AREA  # window smaller than the render
+        img = img.astype(np.float32)
+    return cv2.warpAffine(img, m, (w, h), flags=interp, borderMode=cv2.BORDER_CONSTANT, borderValue=0)

@@ -1,11 +1,13 @@
 """The composite stage: matte every rendered image, put it on a background, write a named variant.
 
 A variant is ``OUT/variants/NAME/`` with ``images/ID.png``, ``manifest.parquet`` (``id``, ``image`` and what
-went into each composite) and ``composite.json`` (the settings). Each image draws from its own generator
-``default_rng([seed, stable_int(id)])``, so the result does not depend on the number of workers. The
-variant is built in a staging folder and swapped in only when complete. Optional steps, each recorded per
-image: a class-balanced choice of background photo, framing around the object
-(:mod:`deformsim.composite.framing`) and camera effects (:mod:`deformsim.composite.effects`).
+went into each composite) and ``composite.json`` (the settings); for a dataset with dense maps also
+``{mask,deform,region}/ID.png``, moved exactly like the part (:mod:`deformsim.composite.maps`). Each image
+draws from its own generator ``default_rng([seed, stable_int(id)])``, so the result does not depend on the
+number of workers. The variant is built in a staging folder and swapped in only when complete. Optional
+steps, each recorded per image: a class-balanced choice of background photo, framing around the object
+(:mod:`deformsim.composite.framing`), a left-right flip of the part (``flip_part``, from a generator of its own)
+and camera effects (:mod:`deformsim.composite.effects`).
 """
 
 from __future__ import annotations
@@ -34,7 +36,8 @@ from deformsim.composite.backgrounds import (
     warn_skipped,
 )
 from deformsim.composite.effects import apply_effects
-from deformsim.composite.framing import reframe
+from deformsim.composite.framing import frame_matrix, warp
+from deformsim.composite.maps import MAP_KINDS, move_maps, read_maps, write_maps
 from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inrange_matte
 from deformsim.config import CompositeConfig
 from deformsim.dataset.layout import RENDER_KINDS, Layout
@@ -54,6 +57,7 @@ def stable_int(iid: str) -> int:
 
 
 SETTINGS_FILE = "composite.json"
+FLIP_STREAM = 0xF11F  # the part flip's own generator, so turning it on moves no other draw
 
 
 def variant_settings(name: str, seed: int, cfg: CompositeConfig) -> dict:
@@ -89,7 +93,7 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
     try:
         (tmp / "images").mkdir()
         state = {"cfg": cfg.model_dump(), "seed": seed, "photos": photos, "out": str(tmp / "images"),
-                 "prefix": f"variants/{name}/images"}
+                 "prefix": f"variants/{name}/images", "maps_out": str(tmp), "maps_prefix": f"variants/{name}"}
         rows, bad = _run(jobs, state, worker_count(len(jobs), cfg.workers, most=8, jobs_each=16), progress)
         for path, reason in sorted(bad.items()):
             warn_skipped(Path(path), reason)
@@ -118,16 +122,23 @@ def balanced_photos(ids: list[str], labels: list[int], n_photos: int, seed: int)
     return out
 
 
-def _jobs(layout: Layout, manifest: pd.DataFrame, source: str) -> list[tuple[str, str, str | None]]:
+def _jobs(layout: Layout, manifest: pd.DataFrame, source: str) -> list[tuple]:
+    """``(id, source image, exact-alpha render or None, dense map paths or None)`` per image, all checked to exist."""
     if manifest.empty:
         raise UserError(f"dataset {layout.root} has no images")
+    dense = "mask" in manifest.columns
     jobs = []
     for row in manifest.itertuples(index=False):
         src = layout.root / getattr(row, source)
         if not src.is_file():
             raise UserError(f"image missing: {src} (is the dataset at {layout.root} complete?)")
         exact = layout.root / row.rgba if "rgba" in manifest.columns else None
-        jobs.append((row.id, str(src), str(exact) if exact is not None and exact.is_file() else None))
+        maps = {k: layout.root / getattr(row, k) for k in MAP_KINDS} if dense else None
+        for path in (maps or {}).values():
+            if not path.is_file():
+                raise UserError(f"dense map missing: {path} (is the dataset at {layout.root} complete?)")
+        jobs.append((row.id, str(src), str(exact) if exact is not None and exact.is_file() else None,
+                     {k: str(p) for k, p in maps.items()} if maps else None))
     return jobs
 
 
@@ -176,8 +187,10 @@ def _read(path: str, flags: int) -> np.ndarray:
     return cv2.cvtColor(img, cv2.COLOR_BGRA2RGBA if img.shape[2] == 4 else cv2.COLOR_BGR2RGB)
 
 
-def composite_one(iid: str, src: str, exact: str | None, photo: int | None = None) -> dict:
-    """Matte, background and composite one image (worker side); writes it and returns its manifest row."""
+def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | None = None,
+                  photo: int | None = None) -> dict:
+    """Matte, background and composite one image (worker side); writes it (and its moved maps) and returns its
+    manifest row."""
     cfg, rng = _STATE["cfg"], np.random.default_rng([_STATE["seed"], stable_int(iid)])
     if cfg.matte == "alpha":
         alpha, fg = alpha_matte(_read(src, cv2.IMREAD_UNCHANGED))
@@ -187,10 +200,19 @@ def composite_one(iid: str, src: str, exact: str | None, photo: int | None = Non
         alpha, fg = key(_read(src, cv2.IMREAD_COLOR), cfg)
         iou = binary_iou(alpha, _read(exact, cv2.IMREAD_UNCHANGED)[..., 3] / 255.0) if exact else float("nan")
     h, w = alpha.shape
+    dense = read_maps(maps, (h, w)) if maps else None
     bg, info = _background(rng, cfg, h, w, photo)
+    m = None
     if cfg.object_fill is not None:
-        fg, alpha, frame = reframe(fg, alpha, cfg.object_fill, cfg.fill_offset, rng)
+        m, frame = frame_matrix(alpha, cfg.object_fill, cfg.fill_offset, rng)
+        fg, alpha = warp(fg, m), np.clip(warp(alpha, m), 0, 1)
         info.update(frame)
+    flip = part_flip(_STATE["seed"], iid, cfg.flip_part)
+    if flip:
+        fg, alpha = fg[:, ::-1], alpha[:, ::-1]
+    info["part_flip"] = flip
+    if dense:
+        info.update(write_maps(move_maps(dense, m, flip), _STATE["maps_out"], _STATE["maps_prefix"], iid))
     out = fg + (1.0 - alpha)[..., None] * bg.astype(np.float32)
     out = np.clip(np.rint(out), 0, 255).astype(np.uint8)
     if cfg.effects is not None:
@@ -199,6 +221,11 @@ def composite_one(iid: str, src: str, exact: str | None, photo: int | None = Non
     if not cv2.imwrite(os.path.join(_STATE["out"], f"{iid}.png"), cv2.cvtColor(out, cv2.COLOR_RGB2BGR)):
         raise OSError(f"cannot write composite of {iid} to {_STATE['out']}")
     return {"id": iid, "image": f"{_STATE['prefix']}/{iid}.png", "matte": cfg.matte, **info, "matte_iou": iou}
+
+
+def part_flip(seed: int, iid: str, p: float) -> bool:
+    """Whether image ``iid`` shows its part mirrored: probability ``p``, from the flip's own generator."""
+    return bool(p > 0 and np.random.default_rng([seed, stable_int(iid), FLIP_STREAM]).random() < p)
 
 
 def _background(rng: np.random.Generator, cfg: CompositeConfig, h: int, w: int,

@@ -5,6 +5,7 @@
       inputs.json                     sha256 of what it is rendered from: mesh file, parsed spec, HDRI files
       samples/000012.json             one record per finished sample (its manifest rows): the resume state
       images/{rgba,black,green}/ID.png  exact-alpha render and its black / green camera-background variants
+      images/{mask,depth,normal,deform,region}/ID.png  dense ground truth (render.dense; see dataset.dense)
       manifest.parquet, manifest.csv  one row per image, consolidated from the sample records
       preview.png                     contact sheet
       variants/NAME/                  composited variants: images/ID.png + manifest.parquet
@@ -16,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 RENDER_KINDS = ("rgba", "black", "green")
+DENSE_KINDS = ("mask", "depth", "normal", "deform", "region")
 
 
 def image_id(sample: int, camera: int) -> str:

@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 
 from deformsim.atomic import atomic_path, write_json
-from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
+from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, Layout, image_id
 from deformsim.errors import UserError
 from deformsim.sampling import SampleParams
 
@@ -21,8 +21,10 @@ from deformsim.sampling import SampleParams
 VOLATILE_COLUMNS = ("render_seconds",)
 
 
-def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camera_scale: float = 1.0) -> list[dict]:
-    """The manifest rows of one sample, one per camera."""
+def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camera_scale: float = 1.0,
+             dense: list[dict] | None = None) -> list[dict]:
+    """The manifest rows of one sample, one per camera; ``dense``: each image's dense-map columns from the
+    worker (``render.dense``), which add the paths of the maps."""
     rows = []
     for c, cam in enumerate(p.cameras):
         iid = image_id(p.index, c)
@@ -53,6 +55,8 @@ def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camer
             **{kind: layout.rel(layout.image(kind, iid)) for kind in RENDER_KINDS},
             "render_seconds": render_seconds[c],
         }
+        if dense is not None:
+            row.update({kind: layout.rel(layout.image(kind, iid)) for kind in DENSE_KINDS}, **dense[c])
         rows.append(row)
     return rows
 
@@ -69,7 +73,7 @@ def read_record(layout: Layout, index: int) -> dict | None:
     except (OSError, ValueError):
         return None
     for row in rec.get("rows", []):
-        if not all((layout.root / row[k]).is_file() for k in RENDER_KINDS):
+        if not all((layout.root / row[k]).is_file() for k in RENDER_KINDS + DENSE_KINDS if k in row):
             return None
     return rec
 

@@ -4,7 +4,8 @@
 views of one scene state never straddle train and test); train on one part, test on the other.
 (b) *real* (with a real folder): train on all of the variant's images, test on the real photographs.
 Models go to ``OUT/models/<variant>_{split,full}/``; everything measured goes to ``OUT/metrics.json``; Grad-CAM
-heatmaps of the real-test models over real photos go to ``OUT/gradcam/<variant>/<n>.png``.
+heatmaps of the real-test models over real photos go to ``OUT/gradcam/<variant>/<n>.png``. A dataset with dense
+labels also gets the severity, family and localise heads (:mod:`deformsim.evaluate.dense_experiments`).
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ from deformsim.dataset.real import real_table
 from deformsim.dataset.tables import split
 from deformsim.dataset.variants import list_variants, variant_table
 from deformsim.errors import UserError
+from deformsim.evaluate.dense_experiments import plan as plan_dense
+from deformsim.evaluate.dense_experiments import run_dense
 from deformsim.evaluate.metrics import compute_metrics
 from deformsim.log import get_logger
 
@@ -164,6 +167,7 @@ def run_experiments(
     t_start = time.perf_counter()
     data_root, out_dir = Path(data_root), Path(out_dir)
     tables, missing = _load_tables(data_root, cfg)
+    dense = plan_dense(data_root, tables, cfg)
     real = real_table(real_dir) if real_dir is not None else None
     rng = np.random.default_rng(cfg.seed)
 
@@ -206,6 +210,9 @@ def run_experiments(
             _log(progress, f"{v}: Grad-CAM heatmaps of real photos")
             part["gradcam"] = gradcam_images(predictor, part["predictions"], cfg.threshold, out_dir, f"gradcam/{v}")
 
+    if dense is not None:
+        _log(progress, f"{dense[0]}: dense-label heads (severity, family, localise)")
+        dense = run_dense(*dense, cfg, out_dir, real, progress, grouped_split)
     metrics = {
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "data_root": str(data_root.resolve()),
@@ -217,6 +224,8 @@ def run_experiments(
         "plots": plots,
         "seconds": time.perf_counter() - t_start,
     }
+    if dense is not None:
+        metrics["dense"] = dense
     write_json(out_dir / "metrics.json", metrics)
     return metrics
 

@@ -10,7 +10,7 @@ import shutil
 from pathlib import Path
 
 from deformsim.config import Config
-from deformsim.dataset.layout import RENDER_KINDS, Layout
+from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, Layout
 from deformsim.dataset.manifest import rows_for, write_record
 from deformsim.errors import ResourceError
 from deformsim.log import get_logger
@@ -36,14 +36,15 @@ def worker_setup(cfg: Config, layout: Layout) -> dict:
     }
 
 
-def finish_sample(layout: Layout, p: SampleParams, render_seconds: list[float], camera_scale: float) -> None:
+def finish_sample(layout: Layout, p: SampleParams, render_seconds: list[float], camera_scale: float,
+                  dense: list[dict] | None = None) -> None:
     """Record a rendered sample: its record is what marks it done for a resumed run."""
-    write_record(layout, p, rows_for(p, layout, render_seconds, camera_scale))
+    write_record(layout, p, rows_for(p, layout, render_seconds, camera_scale, dense))
 
 
 def remove_partial_files(layout: Layout) -> None:
     """Temporary files of an interrupted run (never valid output) are removed before resuming."""
-    for kind in RENDER_KINDS:
+    for kind in RENDER_KINDS + DENSE_KINDS:
         for tmp in (layout.root / "images" / kind).glob(".*"):
             tmp.unlink(missing_ok=True)
 

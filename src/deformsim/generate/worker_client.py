@@ -67,6 +67,10 @@ class WorkerProcess:
         """Render one sample: ``{"done": i, "render_seconds": [...]}`` or ``{"error": i, "message": ...}``."""
         return self._ask({"render": params}, timeout)
 
+    def configure(self, render: dict, timeout: float | None = 60) -> dict:
+        """New render settings (a RenderConfig dict) for the built scene: ``{"configured": device}``."""
+        return self._ask({"configure": render}, timeout)
+
     def close(self, timeout: float = 30) -> None:
         """Ask the worker to quit; kill it if it does not within ``timeout`` seconds."""
         if self.proc is None:

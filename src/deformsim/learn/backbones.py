@@ -3,7 +3,8 @@
 ``CUTS`` gives, per backbone and ``train.finetune`` choice, the index of the first trainable module in
 ``features``: vgg16 features[28] is the last conv (512->512) and features[24] starts its last block
 (conv5_1..conv5_3); mobilenet_v2 features[18] is the final 1x1 conv (320->1280 + BN + ReLU6) and features[17]
-its last inverted residual. ``WIDTH`` is the number of channels ``features`` outputs.
+its last inverted residual. ``WIDTH`` is the number of channels ``features`` outputs, ``STEM_WIDTH`` (per backbone
+and cut) the number entering the first trainable module.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from torch import nn
 
 CUTS = {"vgg16": {"last_conv": 28, "last_block": 24}, "mobilenet_v2": {"last_conv": 18, "last_block": 17}}
 WIDTH = {"vgg16": 512, "mobilenet_v2": 1280}
+STEM_WIDTH = {"vgg16": {28: 512, 24: 512}, "mobilenet_v2": {18: 320, 17: 160}}
 
 
 def backbone_features(name: str) -> nn.Sequential:

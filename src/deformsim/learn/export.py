@@ -1,8 +1,9 @@
 """ONNX export of a trained model.
 
 The graph takes ``image``: float32 (N, 3, S, S) RGB in 0-1 (resized to the training size S, no
-normalisation: it is inside the graph) and outputs ``p_deformed``: (N,) probabilities. The training
-threshold, classes, image size and weights source are stored as ONNX metadata.
+normalisation: it is inside the graph) and outputs ``p_deformed``: (N,) probabilities, or for the other
+``train.target`` s ``max_disp_mm`` (N,), ``p_family`` (N, K) or ``p_region`` (N, s, s). The training
+threshold, classes, target, output names, image size and weights source are stored as ONNX metadata.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ from deformsim.learn.checkpoint import read_checkpoint, restore
 from deformsim.learn.models import DeformNet
 from deformsim.outputs import DISK_FULL, check_file_target
 
+OUTPUT = {"label": "p_deformed", "severity": "max_disp_mm", "family": "p_family", "localise": "p_region"}
+
 
 class _Probabilities(nn.Module):
     def __init__(self, model: DeformNet):
@@ -26,7 +29,7 @@ class _Probabilities(nn.Module):
         self.model = model
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
-        return self.model.proba(image)
+        return self.model.predict(image)
 
 
 def to_onnx(model_path: str | Path, onnx_path: str | Path) -> Path:
@@ -50,14 +53,16 @@ def _export(model: DeformNet, cfg, ckpt: dict, onnx_path: Path) -> None:
     import onnx
 
     example = torch.zeros(1, 3, cfg.image_size, cfg.image_size)
+    output = OUTPUT[cfg.target]
     with atomic_path(onnx_path) as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice
         torch.onnx.export(_Probabilities(model), (example,), str(tmp), dynamo=False, opset_version=17,
-                          input_names=["image"], output_names=["p_deformed"],
-                          dynamic_axes={"image": {0: "batch"}, "p_deformed": {0: "batch"}})
+                          input_names=["image"], output_names=[output],
+                          dynamic_axes={"image": {0: "batch"}, output: {0: "batch"}})
         proto = onnx.load(str(tmp))
         meta = {"classes": ",".join(ckpt.get("classes", [])), "threshold": str(cfg.threshold),
                 "image_size": str(cfg.image_size), "backbone": cfg.backbone, "weights": ckpt.get("weights", ""),
+                "target": cfg.target, "outputs": ",".join(ckpt.get("outputs", ["deformed"])),
                 "input": "RGB float32 in [0, 1], NCHW, resized to image_size x image_size"}
         for k, v in meta.items():
             proto.metadata_props.add(key=k, value=v)

@@ -6,6 +6,11 @@ outputs probabilities. The backbone is split at ``cut``: ``stem`` (frozen, alway
 outputs can be cached) and ``tail`` (the last conv layer / block, trained). The head is the paper's three
 fully connected layers or a linear probe; with ``feature_norm`` the pooled features pass a BatchNorm without
 affine parameters, whose statistics can be re-estimated on another domain (AdaBN, :mod:`deformsim.learn.adapt`).
+
+Other ``target`` s (:mod:`deformsim.learn.targets`) freeze the whole backbone and train only a head on it:
+``severity`` regresses the maximum displacement in mm (``tail`` returns mm), ``family`` gives one logit per
+deformation family, ``localise`` a region logit map (:class:`deformsim.learn.heads.RegionHead` on the stem's map).
+``predict`` gives what the model is for: P(deformed), mm, family probabilities or a region probability map.
 """
 
 from __future__ import annotations
@@ -14,15 +19,18 @@ import torch
 from torch import nn
 
 from deformsim.config import TrainConfig
-from deformsim.learn.backbones import CUTS, WIDTH, backbone_features
+from deformsim.learn.backbones import CUTS, STEM_WIDTH, WIDTH, backbone_features
+from deformsim.learn.heads import RegionHead, region_size, vector_head
 from deformsim.learn.weights import TORCH_MEAN, TORCH_STD, resolve
 
 
 class DeformNet(nn.Module):
     def __init__(self, backbone: str, hidden: tuple[int, int], dropout: float, finetune: str = "last_conv",
-                 head: str = "mlp", feature_norm: bool = False):
+                 head: str = "mlp", feature_norm: bool = False, target: str = "label", outputs: int = 1,
+                 image_size: int = 224):
         super().__init__()
         self.backbone = backbone
+        self.target = target
         self.features = backbone_features(backbone)
         self.cut = CUTS[backbone][finetune]
         self.register_buffer("mean", torch.tensor(TORCH_MEAN, dtype=torch.float32).view(1, 3, 1, 1))
@@ -30,29 +38,31 @@ class DeformNet(nn.Module):
         self.pool = nn.AdaptiveAvgPool2d(1)
         width = WIDTH[backbone]
         self.norm = nn.BatchNorm1d(width, affine=False) if feature_norm else nn.Identity()
-        if head == "mlp":
-            h0, h1 = hidden
-            self.head = nn.Sequential(
-                nn.Flatten(),
-                nn.Linear(width, h0), nn.ReLU(inplace=True), nn.Dropout(dropout),
-                nn.Linear(h0, h1), nn.ReLU(inplace=True), nn.Dropout(dropout),
-                nn.Linear(h1, 1),
-            )
+        if target == "localise":
+            self.head = RegionHead(STEM_WIDTH[backbone][self.cut], region_size(image_size))
         else:
-            self.head = nn.Sequential(nn.Flatten(), nn.Dropout(dropout), nn.Linear(width, 1))
+            self.head = vector_head(width, hidden, dropout, head, outputs)
+        if target == "severity":  # mean and standard deviation of the training targets (mm)
+            self.register_buffer("scale", torch.tensor([0.0, 1.0]))
         for p in self.frozen_parameters():
             p.requires_grad_(False)
 
+    @property
+    def frozen(self) -> nn.Sequential:
+        """The frozen backbone layers: the stem, or all of them for a head-only target."""
+        return self.features[: self.cut] if self.target == "label" else self.features
+
     def frozen_parameters(self):
-        return (p for m in self.features[: self.cut] for p in m.parameters())
+        return (p for m in self.frozen for p in m.parameters())
 
     def train(self, mode: bool = True) -> "DeformNet":
         super().train(mode)
-        self.features[: self.cut].eval()  # frozen BatchNorm statistics stay as loaded
+        self.frozen.eval()  # frozen BatchNorm statistics stay as loaded
         return self
 
     def stem(self, x: torch.Tensor) -> torch.Tensor:
         """Frozen part: 0-1 RGB images to the activations entering the first trainable layer."""
+        x = x.contiguous(memory_format=torch.channels_last)  # with channels-last weights: 1.5x faster on CPU
         return self.features[: self.cut]((x - self.mean) / self.std)
 
     def pooled_raw(self, z: torch.Tensor) -> torch.Tensor:
@@ -64,8 +74,21 @@ class DeformNet(nn.Module):
         pooled = self.norm(self.pooled_raw(z))
         return pooled if layer == "pooled" else self.head[:-1](pooled)
 
+    def head_input(self, z: torch.Tensor) -> torch.Tensor:
+        """Head-only targets: what the head reads, from frozen layers only (the stem map, or pooled features)."""
+        return z if self.target == "localise" else self.pooled_raw(z)
+
+    def from_input(self, h: torch.Tensor) -> torch.Tensor:
+        """Head-only targets: head input to mm (severity) or logits (family: N x K; localise: N x s x s)."""
+        if self.target == "localise":
+            return self.head(h)
+        out = self.head(self.norm(h))
+        return out.squeeze(1) * self.scale[1] + self.scale[0] if self.target == "severity" else out
+
     def tail(self, z: torch.Tensor) -> torch.Tensor:
-        """Trainable part: stem activations to logits (N,)."""
+        """Trainable part: stem activations to logits (N,), or to :meth:`from_input`'s output."""
+        if self.target != "label":
+            return self.from_input(self.head_input(z))
         return self.head(self.norm(self.pooled_raw(z))).squeeze(1)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -74,14 +97,24 @@ class DeformNet(nn.Module):
     def proba(self, x: torch.Tensor) -> torch.Tensor:
         return torch.sigmoid(self(x))
 
+    def outputs(self, z: torch.Tensor) -> torch.Tensor:
+        """Stem activations to the prediction: probabilities, or mm for severity."""
+        out = self.tail(z)
+        return out if self.target == "severity" else torch.sigmoid(out)
 
-def build(cfg: TrainConfig, load_weights: bool = True) -> tuple[DeformNet, str]:
+    def predict(self, x: torch.Tensor) -> torch.Tensor:
+        return self.outputs(self.stem(x))
+
+
+def build(cfg: TrainConfig, load_weights: bool = True, outputs: int = 1) -> tuple[DeformNet, str]:
     """The model for ``cfg`` (random init seeded by cfg.seed) with its backbone weights and their source.
 
-    ``load_weights=False`` skips resolving pretrained weights (when a saved state dict follows).
+    ``load_weights=False`` skips resolving pretrained weights (when a saved state dict follows); ``outputs``:
+    the number of families of a ``family`` model.
     """
     torch.manual_seed(cfg.seed)
-    model = DeformNet(cfg.backbone, cfg.hidden, cfg.dropout, cfg.finetune, cfg.head, cfg.feature_norm)
+    model = DeformNet(cfg.backbone, cfg.hidden, cfg.dropout, cfg.finetune, cfg.head, cfg.feature_norm, cfg.target,
+                      outputs, cfg.image_size).to(memory_format=torch.channels_last)
     if not load_weights:
         return model, "loaded from a saved model"
     state, desc = resolve(cfg.backbone, cfg.weights)

@@ -35,6 +35,8 @@ class Predictor:
         self.classes: list[str] = ckpt.get("classes", list(CLASSES))
         self.history: list[dict] = ckpt.get("history", [])
         self.split: dict = ckpt.get("split", {})
+        self.target: str = self.cfg.target
+        self.outputs: list[str] = ckpt.get("outputs", ["deformed"])
         self.progress = progress
 
     @property
@@ -56,10 +58,22 @@ class Predictor:
             for z in stems.split(bs):
                 yield z.to(self.device)
 
+    def _needs(self, target: str) -> None:
+        if self.target != target:
+            raise UserError(f"{self.path} predicts train.target {self.target}, not {target}")
+
     @torch.inference_mode()
     def predict_proba(self, paths: list[str | Path]) -> np.ndarray:
         """P(deformed) per image, float64 (N,)."""
+        self._needs("label")
         out = [torch.sigmoid(self.model.tail(z)).cpu() for z in self._stems(paths)]
+        return torch.cat(out).double().numpy() if out else np.zeros(0)
+
+    @torch.inference_mode()
+    def predict_outputs(self, paths: list[str | Path]) -> np.ndarray:
+        """What the model predicts, float64: P(deformed) (N,), severity in mm (N,), family probabilities
+        (N, K, in the order of ``outputs``) or region probability maps (N, s, s)."""
+        out = [self.model.outputs(z).cpu() for z in self._stems(paths)]
         return torch.cat(out).double().numpy() if out else np.zeros(0)
 
     def predict(self, paths: list[str | Path]) -> tuple[np.ndarray, list[str]]:
@@ -72,6 +86,8 @@ class Predictor:
         """Per-image embeddings (N, D): the last hidden layer (``penultimate``) or pooled backbone features."""
         if layer not in LAYERS:
             raise UserError(f"unknown feature layer '{layer}' (choose from {', '.join(LAYERS)})")
+        if self.target == "localise" and layer == "penultimate":
+            raise UserError("a localise model has no penultimate layer (use pooled features)")
         out = [self.model.embed(z, layer).cpu() for z in self._stems(paths)]
         return torch.cat(out).numpy() if out else np.zeros((0, 0), np.float32)
 

@@ -141,3 +141,21 @@ def error_bars_png(groups: list[str], series: dict[str, list[tuple[float, float,
         ax.spines[side].set_visible(False)
     ax.legend(fontsize=7, frameon=False, loc="upper left", bbox_to_anchor=(1, 1))
     return _png(fig)
+
+
+def scatter_png(true, pred, what: str) -> bytes:
+    """Predicted against true values (one dot per image) with the identity line."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(3.6, 3.4), dpi=110)
+    top = max(max(true, default=1.0), max(pred, default=1.0)) * 1.05 or 1.0
+    low = min(0.0, min(pred, default=0.0))
+    ax.plot([low, top], [low, top], ls="--", lw=1, color="#888")
+    ax.plot(true, pred, "o", ms=3.5, alpha=0.7, color="#4c78a8")
+    ax.set(xlim=(low, top), ylim=(low, top), xlabel=f"true {_text(what)}", ylabel=f"predicted {_text(what)}")
+    ax.xaxis.label.set_fontsize(8)
+    ax.yaxis.label.set_fontsize(8)
+    ax.tick_params(labelsize=7)
+    ax.grid(alpha=0.25)
+    for side in ("top", "right"):
+        ax.spines[side].set_visible(False)
+    return _png(fig)

@@ -13,6 +13,7 @@ from deformsim.atomic import write_text
 from deformsim.dataset.images import CLASSES
 from deformsim.evaluate.calibration import reliability
 from deformsim.evaluate.experiments import review_order
+from deformsim.report.dense_html import dense_section
 from deformsim.report.figures import curves_png, data_uri, png_file_uri, reliability_png, thumbnail_uri
 
 KEYS = (("accuracy", "Acc"), ("f1", "F1"), ("precision", "Prec."), ("recall", "Recall"))
@@ -284,6 +285,7 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         f"<h2>Confusion matrices</h2><div class=cms>{cms}</div>" if cms else "",
         _calibration(metrics),
         _gradcams(metrics, out_dir),
+        dense_section(metrics, out_dir),
         _plots(metrics, out_dir),
         f"<h2>Training curves</h2><div class=plots><img src='{data_uri(curves, 'image/png')}' alt=curves></div>"
         if curves else "",

@@ -1,0 +1,152 @@
+"""Dense ground truth from the same Cycles render as the RGB image (issue 14).
+
+The part's mesh carries a point attribute :data:`REST`: its rest shape, i.e. the Basis with the opening keys (tab,
+seal) applied at the sample's values, so openings never count as deformation. Every material of the part gets an
+AOV output ``deform`` = |world(Object coords - rest)|: the displacement of the shaded point by the lattice and
+crinkle keys. After the RGBA render the render result (with the Depth, Normal and AOV passes) is saved once as
+multilayer EXR and turned into the maps of :mod:`deformsim.dataset.dense`.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import bpy
+import numpy as np
+import OpenEXR
+
+from deformsim.dataset import dense as maps
+from deformsim.dataset.layout import Layout
+from deformsim.sampling import SampleParams
+from deformsim.spec.model import Spec
+
+REST = "deformsim_rest"
+AOV = "deform"
+AOV_NODE = "DeformsimDeformAOV"
+MM = 1000.0  # scene units (metres) to mm
+_EXR = {"media_type": "MULTI_LAYER_IMAGE", "color_depth": "32", "exr_codec": "ZIP"}
+
+
+def _co(seq, attr: str = "co") -> np.ndarray:
+    flat = np.empty(len(seq) * 3, dtype=np.float32)
+    seq.foreach_get(attr, flat)
+    return flat.reshape(-1, 3)
+
+
+def rest_positions(obj, spec: Spec, seal: float, tab: float) -> np.ndarray:
+    """Object-space rest shape: the Basis plus the opening keys at ``seal`` and ``tab`` (float32, (N, 3))."""
+    keys = obj.data.shape_keys.key_blocks if obj.data.shape_keys else None
+    if keys is None:
+        return _co(obj.data.vertices)
+    co = _co(keys[0].data)
+    for name, value in ((spec.openings.seal, seal), (spec.openings.tab, tab)):
+        if name and value:
+            block = keys[name]
+            co += np.float32(value) * (_co(block.data) - _co(block.relative_key.data))
+    return co
+
+
+def prepare(scene, obj, spec: Spec, p: SampleParams) -> None:
+    """Enable the passes, give every material of ``obj`` the AOV output and store sample ``p``'s rest shape."""
+    layer = scene.view_layers[0]
+    layer.use_pass_z = layer.use_pass_normal = True
+    if AOV not in layer.aovs:
+        aov = layer.aovs.add()
+        aov.name, aov.type = AOV, "VALUE"
+    for mat in obj.data.materials:
+        if mat is not None and AOV_NODE not in mat.node_tree.nodes:
+            _add_aov(mat)
+    mesh = obj.data
+    attr = mesh.attributes.get(REST) or mesh.attributes.new(REST, "FLOAT_VECTOR", "POINT")
+    attr.data.foreach_set("vector", rest_positions(obj, spec, p.seal, p.tab).ravel())
+    mesh.update()
+
+
+def _add_aov(mat) -> None:
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    coord = nodes.new("ShaderNodeTexCoord")
+    rest = nodes.new("ShaderNodeAttribute")
+    rest.attribute_type, rest.attribute_name = "GEOMETRY", REST
+    diff = nodes.new("ShaderNodeVectorMath")
+    diff.operation = "SUBTRACT"
+    world = nodes.new("ShaderNodeVectorTransform")
+    world.vector_type, world.convert_from, world.convert_to = "VECTOR", "OBJECT", "WORLD"
+    length = nodes.new("ShaderNodeVectorMath")
+    length.operation = "LENGTH"
+    out = nodes.new("ShaderNodeOutputAOV")
+    out.name, out.aov_name = AOV_NODE, AOV
+    links.new(coord.outputs["Object"], diff.inputs[0])
+    links.new(rest.outputs["Vector"], diff.inputs[1])
+    links.new(diff.outputs["Vector"], world.inputs["Vector"])
+    links.new(world.outputs["Vector"], length.inputs[0])
+    links.new(length.outputs["Value"], out.inputs["Value"])
+
+
+def max_displacement_mm(obj) -> float:
+    """Largest displacement of any vertex of the evaluated (deformed) mesh from its rest position, in mm."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    mesh = obj.evaluated_get(depsgraph).data
+    moved = (_co(mesh.vertices) - _co(mesh.attributes[REST].data, "vector")).astype(float)
+    rot_scale = np.array(obj.matrix_world)[:3, :3]
+    return float(np.linalg.norm(moved @ rot_scale.T, axis=1).max() * MM)
+
+
+def _passes(scene, target: Path) -> dict[str, np.ndarray]:
+    """Save the last render result as multilayer EXR beside ``target``; return its channels by name (rows top-down)."""
+    settings = scene.render.image_settings
+    target.parent.mkdir(parents=True, exist_ok=True)
+    saved = {k: getattr(settings, k) for k in ("media_type", "file_format", "color_mode", "color_depth", "compression")}
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.passes.", suffix=".exr", dir=target.parent)
+    os.close(fd)
+    try:
+        for k, v in _EXR.items():
+            setattr(settings, k, v)
+        bpy.data.images["Render Result"].save_render(tmp, scene=scene)
+        with OpenEXR.File(tmp, separate_channels=True) as f:
+            return {name: ch.pixels.copy() for part in f.parts for name, ch in part.channels.items()}
+    finally:
+        for k, v in saved.items():
+            setattr(settings, k, v)
+        Path(tmp).unlink(missing_ok=True)
+
+
+def write_maps(scene, camera, alpha8: np.ndarray, layout: Layout, iid: str, threshold_mm: float) -> dict:
+    """Write the five maps of image ``iid`` from the last render; return its manifest columns (bbox, disp, region)."""
+    ch = _passes(scene, layout.image("mask", iid))
+    layer = scene.view_layers[0].name
+    mask = alpha8 >= 128
+    coverage = ch[f"{layer}.Combined.A"]
+    # Passes are averaged over every camera sample, misses counting 0: divide the AOV by the part's coverage.
+    deform = np.where(mask, ch[f"{layer}.{AOV}.X"] / np.maximum(coverage, 1e-6), 0.0) * MM
+    depth = _fill(np.where(mask & (ch[f"{layer}.Depth.Z"] < 1e9), ch[f"{layer}.Depth.Z"], 0.0) * MM, mask)
+    normal = np.stack([ch[f"{layer}.Normal.{a}"] for a in "XYZ"], axis=-1)
+    cam = np.array(camera.matrix_world)[:3, :3]
+    normal = normal @ (cam / np.linalg.norm(cam, axis=0))  # world -> camera axes
+    normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-9)
+    region = maps.region_mask(deform, mask, threshold_mm)
+    maps.save_png(layout.image("mask", iid), maps.mask_image(mask))
+    maps.save_png(layout.image("depth", iid), maps.encode_u16(depth, 1.0))
+    maps.save_png(layout.image("normal", iid), maps.encode_normal(normal, mask))
+    maps.save_png(layout.image("deform", iid), maps.encode_u16(deform, maps.DEFORM_SCALE))
+    maps.save_png(layout.image("region", iid), maps.mask_image(region))
+    stored = maps.encode_u16(deform, maps.DEFORM_SCALE) / maps.DEFORM_SCALE
+    return maps.map_stats(mask, stored, region)
+
+
+def _fill(depth: np.ndarray, mask: np.ndarray, steps: int = 4) -> np.ndarray:
+    """Depth is taken from the first camera sample: give covered pixels it missed their nearest neighbour's depth."""
+    h, w = depth.shape
+    for _ in range(steps):
+        hole = mask & (depth == 0)
+        if not hole.any():
+            break
+        pad = np.pad(np.where(depth > 0, depth, np.inf), 1, constant_values=np.inf)
+        near = np.min([pad[dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)], axis=0)
+        depth = np.where(hole & np.isfinite(near), near, depth)
+    return depth
+
+
+def family_flags(spec: Spec, p: SampleParams) -> dict[str, int]:
+    return {f"family_{f.name}": int(f.name in p.families) for f in spec.families}

@@ -1,0 +1,34 @@
+"""``deformsim export-data``: a dataset variant in a layout other tools read (ImageFolder, COCO, anomalib)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from deformsim.cli.common import console, fail_cleanly
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("export-data")
+    @fail_cleanly
+    def export_data(
+        data: Path = typer.Argument(..., help="generated dataset folder"),
+        out: Path = typer.Argument(..., help="new or empty folder for the export"),
+        fmt: str = typer.Option(..., "--format", "-f", help="imagefolder, coco or anomalib"),
+        variant: Optional[str] = typer.Option(
+            None, "--variant", help="black, green or a composited variant (default: the first composited one, else black)"
+        ),
+        overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier export in OUT"),
+        progress: bool = typer.Option(True, "--progress/--no-progress"),
+    ) -> None:
+        """Export a variant's images (and masks) for torchvision/Hugging Face, COCO tools or anomalib."""
+        from deformsim.export import export_data as run
+
+        result = run(data, out, fmt, variant, overwrite=overwrite, progress=progress)
+        s = result.summary
+        copied = s["images"] - s["linked"]
+        how = f"{s['linked']} hard-linked" + (f", {copied} copied" if copied else "")
+        console.print(f"[bold]{s['images']}[/] images of variant {result.variant} exported as {fmt} to {result.out} "
+                      f"({how}); see {result.out / 'README.txt'}", highlight=False)

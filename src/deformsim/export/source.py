@@ -1,0 +1,84 @@
+"""What an export reads: one variant's images, labels and, where they line up with its pictures, part masks.
+
+The masks of a composited variant are its own moved maps (``variants/NAME/{mask,region}``); the render's maps
+(or, without dense maps, the render's alpha) fit a variant only when its pictures keep the render's geometry:
+``black``, ``green``, or a composite that was neither framed nor flipped.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from PIL import Image
+
+from deformsim.dataset.dense import read_mask
+from deformsim.dataset.layout import RENDER_KINDS, Layout
+from deformsim.dataset.variants import VARIANT_MANIFEST, list_variants, variant_table
+from deformsim.errors import UserError
+
+SEVERITY = ("max_disp_mm", "visible_disp_mm", "region_fraction")
+
+
+def default_variant(root: Path) -> str:
+    """The first composited variant (by name), else ``black``."""
+    made = [v for v in list_variants(root) if v not in RENDER_KINDS]
+    return made[0] if made else "black"
+
+
+def _own_columns(root: Path, variant: str) -> pd.Index:
+    return pd.read_parquet(Layout(root).variant_dir(variant) / VARIANT_MANIFEST).columns
+
+
+def _keeps_geometry(table: pd.DataFrame, variant: str) -> bool:
+    """Do the variant's pictures keep the render's geometry (so the render's maps or alpha fit them)?"""
+    if variant in RENDER_KINDS:
+        return True
+    flipped = "part_flip" in table.columns and bool(table["part_flip"].any())
+    return "frame_side" not in table.columns and not flipped
+
+
+def export_table(root: Path, variant: str) -> pd.DataFrame:
+    """Columns ``id, label, y, path`` (absolute), ``mask_src`` (``dense``, ``alpha`` or ``none``), and when masks
+    fit: ``mask_path`` (a 0/255 map, or the RGBA render whose alpha is the mask) and ``region_path`` (dense only).
+
+    A :class:`UserError` for an unknown variant or a missing image, before anything is written.
+    """
+    layout = Layout(root)
+    table = variant_table(root, variant)
+    if table.empty:
+        raise UserError(f"variant '{variant}' of {root} has no images")
+    gone = [p for p in table["path"] if not Path(p).is_file()]
+    if gone:
+        raise UserError(f"{len(gone)} image(s) of variant '{variant}' missing, e.g. {gone[0]}")
+    own_maps = variant not in RENDER_KINDS and "mask" in _own_columns(root, variant)
+    if "mask" in table.columns and (own_maps or _keeps_geometry(table, variant)):
+        table["mask_src"] = "dense"
+        table["mask_path"] = [str(layout.root / p) for p in table["mask"]]
+        table["region_path"] = [str(layout.root / p) for p in table["region"]]
+    elif "rgba" in table.columns and _keeps_geometry(table, variant):
+        table["mask_src"] = "alpha"
+        table["mask_path"] = [str(layout.root / p) for p in table["rgba"]]
+    else:
+        table["mask_src"] = "none"
+    return table.sort_values("id").reset_index(drop=True)
+
+
+def part_mask(row) -> np.ndarray:
+    """The part's mask (bool) of a row of :func:`export_table`: the dense mask, or render alpha >= 0.5."""
+    if row.mask_src == "dense":
+        return read_mask(row.mask_path)
+    with Image.open(row.mask_path) as im:
+        return np.asarray(im.getchannel("A")) >= 128
+
+
+def image_size(path: str) -> tuple[int, int]:
+    """``(width, height)`` from the file's header."""
+    with Image.open(path) as im:
+        return im.size
+
+
+def families(row) -> list[str]:
+    value = getattr(row, "families", "")
+    return [f for f in str(value).split(",") if f] if isinstance(value, str) else []

@@ -1,0 +1,50 @@
+"""Dense map files: formats round-trip, boxes, region threshold and per-image statistics."""
+
+from __future__ import annotations
+
+import numpy as np
+from PIL import Image
+
+from deformsim.dataset import dense
+
+
+def test_deform_map_round_trips_in_hundredths_of_a_mm_as_16_bit(tmp_path):
+    mm = np.array([[0.0, 0.004, 1.234], [250.0, 700.0, np.nan]])
+    dense.save_png(tmp_path / "d.png", dense.encode_u16(mm, dense.DEFORM_SCALE))
+    with Image.open(tmp_path / "d.png") as im:
+        assert im.mode == "I;16"
+    back = dense.read_deform_mm(tmp_path / "d.png")
+    assert back.dtype == np.float32
+    np.testing.assert_allclose(back, [[0.0, 0.0, 1.23], [250.0, 655.35, 0.0]], atol=1e-4)  # clipped, NaN -> 0
+
+
+def test_mask_and_bbox_are_exclusive_at_the_far_edge(tmp_path):
+    mask = np.zeros((8, 10), bool)
+    mask[2:5, 3:7] = True
+    dense.save_png(tmp_path / "m.png", dense.mask_image(mask))
+    read = dense.read_mask(tmp_path / "m.png")
+    assert (read == mask).all()
+    assert dense.mask_bbox(read) == (3, 2, 7, 5)
+    assert dense.mask_bbox(np.zeros((4, 4), bool)) is None
+
+
+def test_normals_encode_to_rgb_and_black_off_the_part():
+    n = np.zeros((2, 2, 3))
+    n[..., 2] = 1.0
+    n[0, 0] = (-1.0, 0.0, 0.0)
+    mask = np.array([[True, True], [True, False]])
+    rgb = dense.encode_normal(n, mask)
+    assert rgb[0, 0].tolist() == [0, 128, 128] and rgb[0, 1].tolist() == [128, 128, 255]
+    assert rgb[1, 1].tolist() == [0, 0, 0]
+
+
+def test_region_uses_the_stored_values_and_stats_count_it_against_the_mask():
+    deform = np.array([[0.0, 0.996, 1.0], [2.5, 3.0, 0.0]])
+    mask = np.array([[True, True, True], [True, False, False]])
+    region = dense.region_mask(deform, mask, 1.0)
+    assert region.tolist() == [[False, True, True], [True, False, False]]  # 0.996 is stored as 1.00 mm
+    stats = dense.map_stats(mask, deform * mask, region)
+    assert stats == {"bbox_x0": 0, "bbox_y0": 0, "bbox_x1": 3, "bbox_y1": 2, "visible_disp_mm": 2.5,
+                     "region_fraction": 0.75}
+    empty = dense.map_stats(np.zeros((2, 2), bool), np.zeros((2, 2)), np.zeros((2, 2), bool))
+    assert empty["bbox_x0"] == empty["bbox_y1"] == -1 and empty["region_fraction"] == 0 == empty["visible_disp_mm"]
