@@ -152,7 +152,7 @@ def run_resolution(res: int, grid: dict, states: list, args, cfg) -> list[dict]:
     try:
         refs = [reference(bench, ref_render, p, args.out) for p in states]
         boxes = [object_box(r[..., 3]) for r in refs]
-        order = [(name, k) for name in grid for k in range(len(states))]
+        order = [(name, k) for name in grid for k in range(len(states)) for _ in range(args.repeats)]
         rows = {name: {"name": name, "resolution": res, "render": settings[name].model_dump(mode="json"), "scenes": []}
                 for name in grid}
         for i in rng.permutation(len(order)):
@@ -206,6 +206,7 @@ def main() -> None:
     ap.add_argument("--scenes", type=int, help="scene states (half intact); default 4 (--quick: 2)")
     ap.add_argument("--ref-samples", type=int, help="reference samples per pixel; default 512 (--quick: 128)")
     ap.add_argument("--only", nargs="+", metavar="NAME", help="these settings of the grid only (today is always kept)")
+    ap.add_argument("--repeats", type=int, default=1, help="render each setting and scene this many times (timing noise)")
     ap.add_argument("--seed", type=int, default=0, help="draws the scenes and the render order")
     args = ap.parse_args()
     args.resolutions = args.resolutions or ([128] if args.quick else [512, 128, 256])
@@ -213,9 +214,9 @@ def main() -> None:
     args.ref_samples = args.ref_samples or (128 if args.quick else 512)
     names = set(args.only or (QUICK_GRID if args.quick else FULL_GRID)) | {"today"}
     unknown = sorted(names - set(GRID))
-    if unknown or min(args.resolutions) < 16 or args.scenes < 1 or not 1 <= args.ref_samples <= 4096:
-        bad = (f"unknown setting {unknown[0]!r} (known: {', '.join(GRID)})" if unknown
-               else f"bad --resolutions {args.resolutions}, --scenes {args.scenes} or --ref-samples {args.ref_samples}")
+    if unknown or min(args.resolutions) < 16 or min(args.scenes, args.repeats) < 1 or not 1 <= args.ref_samples <= 4096:
+        bad = (f"unknown setting {unknown[0]!r} (known: {', '.join(GRID)})" if unknown else f"bad --resolutions "
+               f"{args.resolutions}, --scenes {args.scenes}, --repeats {args.repeats} or --ref-samples {args.ref_samples}")
         raise SystemExit(f"error: {bad}")
     grid = {n: o for n, o in GRID.items() if n in names}
     cfg = load_config("paper", {"generate.n": 4, "generate.seed": args.seed, "render.dense": False,

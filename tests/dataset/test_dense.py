@@ -48,3 +48,20 @@ def test_region_uses_the_stored_values_and_stats_count_it_against_the_mask():
                      "region_fraction": 0.75}
     empty = dense.map_stats(np.zeros((2, 2), bool), np.zeros((2, 2)), np.zeros((2, 2), bool))
     assert empty["bbox_x0"] == empty["bbox_y1"] == -1 and empty["region_fraction"] == 0 == empty["visible_disp_mm"]
+
+
+def test_rigid_fit_removes_rotation_and_translation_but_not_deformation():
+    from deformsim.dataset.dense import rigid_fit
+
+    rng = np.random.default_rng(0)
+    rest = rng.normal(size=(200, 3))
+    angle = 0.7
+    rot = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    moved = rest @ rot.T + [0.3, -1.0, 2.0]
+    r, t = rigid_fit(rest, moved)
+    assert np.abs(rest @ r.T + t - moved).max() < 1e-9  # a rigid motion alone is no deformation
+    dent = moved.copy()
+    dent[0] += [0.0, 0.0, 0.5]  # one point pushed in by 0.5
+    r, t = rigid_fit(rest, dent)
+    residual = np.linalg.norm(dent - (rest @ r.T + t), axis=1)
+    assert residual[0] == max(residual) and 0.45 < residual[0] <= 0.5 and np.median(residual) < 0.01

@@ -1,7 +1,9 @@
 """Dense ground truth from the same Cycles render as the RGB image (issue 14).
 
 The part's mesh carries a point attribute :data:`REST`: its rest shape, i.e. the Basis with the opening keys (tab,
-seal) applied at the sample's values, so openings never count as deformation. Every material of the part gets an
+seal) applied at the sample's values, so openings never count as deformation, and placed by a rigid fit
+(:func:`deformsim.dataset.dense.rigid_fit`) where it matches the deformed part best, so that a bent or twisted
+part's rigid motion does not count either. Every material of the part gets an
 AOV output ``deform`` = |world(Object coords - rest)|: the displacement of the shaded point by the lattice and
 crinkle keys. After the RGBA render the render result (with the Depth, Normal and AOV passes) is saved once as
 multilayer EXR and turned into the maps of :mod:`deformsim.dataset.dense`.
@@ -60,8 +62,16 @@ def prepare(scene, obj, spec: Spec, p: SampleParams) -> None:
             _add_aov(mat)
     mesh = obj.data
     attr = mesh.attributes.get(REST) or mesh.attributes.new(REST, "FLOAT_VECTOR", "POINT")
-    attr.data.foreach_set("vector", rest_positions(obj, spec, p.seal, p.tab).ravel())
+    rest = rest_positions(obj, spec, p.seal, p.tab)
+    attr.data.foreach_set("vector", rest.ravel())
     mesh.update()
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    moved, rest_eval = _co(evaluated.vertices), _co(evaluated.attributes[REST].data, "vector")
+    if np.any(moved != rest_eval):  # deformed: measure from the rest shape placed where it fits best
+        r, t = maps.rigid_fit(rest_eval, moved)
+        attr = mesh.attributes[REST]
+        attr.data.foreach_set("vector", (rest @ r.T + t).astype(np.float32).ravel())
+        mesh.update()
 
 
 def _add_aov(mat) -> None:
@@ -85,7 +95,7 @@ def _add_aov(mat) -> None:
 
 
 def max_displacement_mm(obj) -> float:
-    """Largest displacement of any vertex of the evaluated (deformed) mesh from its rest position, in mm."""
+    """Largest displacement of any vertex of the evaluated (deformed) mesh from its (fitted) rest position, in mm."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
     mesh = obj.evaluated_get(depsgraph).data
     moved = (_co(mesh.vertices) - _co(mesh.attributes[REST].data, "vector")).astype(float)

@@ -53,6 +53,20 @@ def region_mask(deform_mm: np.ndarray, mask: np.ndarray, threshold_mm: float) ->
     return mask & (stored >= np.rint(threshold_mm * DEFORM_SCALE))
 
 
+def rigid_fit(rest: np.ndarray, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation R and translation t that best map ``rest`` onto ``moved`` (least squares, Kabsch): (N, 3) each.
+
+    ``rest @ R.T + t`` is the undeformed part placed where it fits the deformed one best, so that displacement
+    measured from it is deformation, not the rigid motion a global bend or twist also causes.
+    """
+    a, b = np.asarray(rest, dtype=np.float64), np.asarray(moved, dtype=np.float64)
+    ca, cb = a.mean(0), b.mean(0)
+    u, _, vt = np.linalg.svd((a - ca).T @ (b - cb))
+    d = np.sign(np.linalg.det(vt.T @ u.T))
+    r = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    return r, cb - ca @ r.T
+
+
 def read_deform_mm(path: str | Path) -> np.ndarray:
     """A ``deform`` map back in millimetres (float32)."""
     with Image.open(path) as im:
