@@ -169,9 +169,9 @@ def run_resolution(res: int, grid: dict, states: list, args, cfg) -> list[dict]:
         r.update(seconds=float(np.mean([x["seconds"] for x in s])), wall=float(np.mean([x["wall"] for x in s])),
                  ssim=float(np.mean([x["ssim"] for x in s])), ssim_min=float(min(x["ssim"] for x in s)),
                  psnr=float(np.mean([x["psnr"] for x in s])))
-    base = rows["today"]["seconds"]
+    today_s = rows["today"]["seconds"]
     for r in rows.values():
-        r["speedup"] = base / r["seconds"]
+        r["speedup"] = today_s / r["seconds"]
     front = pareto(list(rows.values()))
     for r in rows.values():
         r["pareto"] = r["name"] in front
