@@ -62,7 +62,6 @@ class DeformNet(nn.Module):
 
     def stem(self, x: torch.Tensor) -> torch.Tensor:
         """Frozen part: 0-1 RGB images to the activations entering the first trainable layer."""
-        x = x.contiguous(memory_format=torch.channels_last)  # with channels-last weights: 1.5x faster on CPU
         return self.features[: self.cut]((x - self.mean) / self.std)
 
     def pooled_raw(self, z: torch.Tensor) -> torch.Tensor:
@@ -114,7 +113,7 @@ def build(cfg: TrainConfig, load_weights: bool = True, outputs: int = 1) -> tupl
     """
     torch.manual_seed(cfg.seed)
     model = DeformNet(cfg.backbone, cfg.hidden, cfg.dropout, cfg.finetune, cfg.head, cfg.feature_norm, cfg.target,
-                      outputs, cfg.image_size).to(memory_format=torch.channels_last)
+                      outputs, cfg.image_size)
     if not load_weights:
         return model, "loaded from a saved model"
     state, desc = resolve(cfg.backbone, cfg.weights)

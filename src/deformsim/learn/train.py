@@ -51,8 +51,7 @@ class _Inputs:
         self.plain = ImageSet(paths, cfg.image_size)
         self.augmented = ImageSet(paths, cfg.image_size, augmenter(cfg.image_size)) if cfg.augment else self.plain
         if cfg.cache_features and not cfg.augment:
-            feats = cached_stem(model, paths, cfg.image_size, cfg.batch_size, progress)
-            self.feats = feats.to(device, memory_format=torch.channels_last)  # as the conv weights: faster steps
+            self.feats = cached_stem(model, paths, cfg.image_size, cfg.batch_size, progress).to(device)
 
     def all(self, rows: torch.Tensor, batch_size: int) -> torch.Tensor:
         """Plain (not augmented) stem activations of ``rows``."""
