@@ -79,7 +79,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--backgrounds", type=Path, default=SHARED / "backgrounds" if (SHARED / "backgrounds").is_dir() else None)
     ap.add_argument("--out", type=Path, default=Path("runs/throughput"))
-    ap.add_argument("--render-sizes", type=int, nargs=2, default=[16, 48], 
+    ap.add_argument("--render-sizes", type=int, nargs=2, default=[16, 48],
                     help="images in the two render runs (whole samples of 4 for both workers)")
     ap.add_argument("--paper-sizes", type=int, nargs=2, default=[8, 24], help="the same for the paper preset (512 px)")
     ap.add_argument("--learn-sizes", type=int, nargs=2, default=[32, 96], help="images in the two learning runs")
