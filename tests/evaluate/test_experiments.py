@@ -10,7 +10,7 @@ from PIL import Image, ImageOps
 from typer.testing import CliRunner
 
 from deformsim.config import TrainConfig
-from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
+from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, Layout, image_id
 from deformsim.evaluate.experiments import review_order
 
 pytestmark = [pytest.mark.torch, pytest.mark.blender]
@@ -32,7 +32,7 @@ def four_samples(tiny_dataset, tmp_path_factory):
             r = r.copy()
             r["sample"] += copy * n
             r["id"] = image_id(r["sample"], r["camera"])
-            for kind in RENDER_KINDS:
+            for kind in [k for k in (*RENDER_KINDS, *DENSE_KINDS) if k in manifest.columns]:
                 out = dst.image(kind, r["id"])
                 out.parent.mkdir(parents=True, exist_ok=True)
                 with Image.open(src.root / r[kind]) as im:
