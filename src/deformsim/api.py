@@ -64,10 +64,9 @@ class Engine:
         of other settings in ``out`` is refused unless ``overwrite``.
         """
         from deformsim.dataset.tables import load_table
-        from deformsim.learn.targets import with_dense_paths
         from deformsim.pipeline import train_model
 
-        table = with_dense_paths(load_table(Path(data), variant, self.config.train.variants[0]), Path(data))
+        table = load_table(Path(data), variant, self.config.train.variants[0])
         return train_model(table, self.config.train, Path(out), Path(data), variant or self.config.train.variants[0],
                            overwrite=overwrite,
                            progress=self.progress, adapt=Path(adapt) if adapt is not None else None)

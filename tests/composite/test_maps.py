@@ -85,8 +85,8 @@ def test_framed_maps_follow_the_crop_and_keep_their_values(dense):
 def test_variant_table_takes_the_variant_maps(dense):
     _run(dense, "framed", object_fill=(0.7, 0.9))
     composited, black = variant_table(dense, "framed"), variant_table(dense, "black")
-    assert composited["mask"].str.startswith("variants/framed/mask/").all()
-    assert black["mask"].str.startswith("images/mask/").all()
+    assert composited["mask"].str.startswith(f"{dense}/variants/framed/mask/").all()
+    assert black["mask"].str.startswith(f"{dense}/images/mask/").all()
     assert {"bbox_x0", "visible_disp_mm", "region_fraction", "max_disp_mm", "family_crush"} <= set(composited.columns)
 
 

@@ -12,7 +12,7 @@ from deformsim.dataset.variants import variant_table
 from deformsim.errors import UserError
 from deformsim.learn.models import build
 from deformsim.learn.predict import load
-from deformsim.learn.targets import region_masks, with_dense_paths
+from deformsim.learn.targets import region_masks
 from deformsim.learn.train import fit
 from tests.learn.dense_blobs import FAMILIES, make_dense_dataset
 
@@ -24,7 +24,7 @@ CFG = dict(weights="offline", image_size=64, batch_size=16, epochs=15)
 @pytest.fixture(scope="module")
 def dense(tmp_path_factory) -> pd.DataFrame:
     root = make_dense_dataset(tmp_path_factory.mktemp("dense") / "data", 12)
-    return with_dense_paths(variant_table(root, "black"), root)
+    return variant_table(root, "black")
 
 
 @pytest.fixture(scope="module")

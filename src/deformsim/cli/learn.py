@@ -36,7 +36,6 @@ def train(
     An existing model in --out is replaced only when it was trained with the same settings on the same images,
     or with --overwrite; the new one is built beside it and swapped in whole."""
     from deformsim.dataset.tables import load_table
-    from deformsim.learn.targets import with_dense_paths
     from deformsim.outputs import check_folder_target
     from deformsim.pipeline import train_model
 
@@ -44,7 +43,7 @@ def train(
     cfg = load_cli_config(config, {"--epochs": ("train.epochs", epochs), "--backbone": ("train.backbone", backbone),
                                    "--weights": ("train.weights", weights), "--device": ("train.device", device),
                                    "--target": ("train.target", target)}).train
-    table = with_dense_paths(load_table(data, variant, cfg.variants[0]), data)
+    table = load_table(data, variant, cfg.variants[0])
     result = train_model(table, cfg, out, data, variant or cfg.variants[0], overwrite=overwrite, progress=progress,
                          adapt=adapt)
     last = result.history[-1]

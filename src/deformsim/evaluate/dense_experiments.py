@@ -22,8 +22,7 @@ import pandas as pd
 from deformsim.atomic import write_bytes
 from deformsim.config import TrainConfig
 from deformsim.dataset.images import open_rgb
-from deformsim.dataset.layout import RENDER_KINDS, Layout
-from deformsim.dataset.variants import VARIANT_MANIFEST, variant_table
+from deformsim.dataset.variants import has_own_maps, variant_table
 from deformsim.errors import UserError
 from deformsim.evaluate.dense import family_metrics, region_metrics, severity_metrics
 
@@ -32,28 +31,19 @@ HEATMAPS = 6
 HEATMAP_SIZE = 200  # longest side of the photo in a heatmap pair, pixels
 
 
-def _aligned(data_root: Path, variant: str) -> bool:
-    """Whether ``variant``'s region maps match its images: render variants, or composites with their own maps."""
-    if variant in RENDER_KINDS:
-        return True
-    import pyarrow.parquet as pq
-
-    return "region" in pq.read_schema(Layout(data_root).variant_dir(variant) / VARIANT_MANIFEST).names
-
-
 def plan(data_root: Path, tables: dict[str, pd.DataFrame], cfg: TrainConfig) -> tuple[str, pd.DataFrame] | None:
     """The variant and table (absolute map paths) the dense heads train on; None when the dataset is not dense.
 
     Checked before any training: a dense dataset whose labels are unusable stops with one line.
     """
-    from deformsim.learn.targets import check_target, with_dense_paths
+    from deformsim.learn.targets import check_target
 
     first = next(iter(tables.values()))
     if "region" not in first.columns:
         return None
-    composited = [v for v in tables if v not in RENDER_KINDS and _aligned(data_root, v)]
+    composited = [v for v in tables if has_own_maps(data_root, v)]
     variant = composited[0] if composited else "black"
-    table = with_dense_paths(tables[variant] if variant in tables else variant_table(data_root, variant), data_root)
+    table = tables[variant] if variant in tables else variant_table(data_root, variant)
     for target in TARGETS:
         check_target(table, cfg.model_copy(update={"target": target}))
     return variant, table

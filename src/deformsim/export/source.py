@@ -15,7 +15,7 @@ from PIL import Image
 
 from deformsim.dataset.dense import read_mask
 from deformsim.dataset.layout import RENDER_KINDS, Layout
-from deformsim.dataset.variants import VARIANT_MANIFEST, list_variants, variant_table
+from deformsim.dataset.variants import has_own_maps, list_variants, variant_table
 from deformsim.errors import UserError
 
 SEVERITY = ("max_disp_mm", "visible_disp_mm", "region_fraction")
@@ -25,10 +25,6 @@ def default_variant(root: Path) -> str:
     """The first composited variant (by name), else ``black``."""
     made = [v for v in list_variants(root) if v not in RENDER_KINDS]
     return made[0] if made else "black"
-
-
-def _own_columns(root: Path, variant: str) -> pd.Index:
-    return pd.read_parquet(Layout(root).variant_dir(variant) / VARIANT_MANIFEST).columns
 
 
 def _keeps_geometry(table: pd.DataFrame, variant: str) -> bool:
@@ -52,11 +48,9 @@ def export_table(root: Path, variant: str) -> pd.DataFrame:
     gone = [p for p in table["path"] if not Path(p).is_file()]
     if gone:
         raise UserError(f"{len(gone)} image(s) of variant '{variant}' missing, e.g. {gone[0]}")
-    own_maps = variant not in RENDER_KINDS and "mask" in _own_columns(root, variant)
-    if "mask" in table.columns and (own_maps or _keeps_geometry(table, variant)):
+    if "mask" in table.columns and (has_own_maps(root, variant) or _keeps_geometry(table, variant)):
         table["mask_src"] = "dense"
-        table["mask_path"] = [str(layout.root / p) for p in table["mask"]]
-        table["region_path"] = [str(layout.root / p) for p in table["region"]]
+        table["mask_path"], table["region_path"] = table["mask"], table["region"]
     elif "rgba" in table.columns and _keeps_geometry(table, variant):
         table["mask_src"] = "alpha"
         table["mask_path"] = [str(layout.root / p) for p in table["rgba"]]

@@ -31,7 +31,6 @@ from deformsim.log import get_logger, progress_bar
 log = get_logger(__name__)
 
 FAMILY_PREFIX = "family_"
-DENSE_PATHS = ("mask", "deform", "region")  # per-image map columns, relative to the dataset root
 SCORES = {"severity": "mae_mm", "family": "f1", "localise": "iou"}
 _HINT = "a dataset generated with render.dense: true"
 
@@ -64,17 +63,6 @@ def check_target(table: pd.DataFrame, cfg: TrainConfig) -> None:
         gone = [p for p in table["region"] if not Path(p).is_file()]
         if gone:
             raise UserError(f"train.target localise: {len(gone)} region mask(s) missing, e.g. {gone[0]}")
-
-
-def with_dense_paths(table: pd.DataFrame, root: str | Path) -> pd.DataFrame:
-    """``table`` with its map columns (``mask``, ``deform``, ``region``) as absolute paths under ``root``."""
-    cols = [c for c in DENSE_PATHS if c in table.columns]
-    if not cols:
-        return table
-    table = table.copy()
-    for c in cols:
-        table[c] = [str(Path(root) / p) for p in table[c]]
-    return table
 
 
 def region_masks(paths: list[str], size: int) -> torch.Tensor:
