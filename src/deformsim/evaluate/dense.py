@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from deformsim.evaluate.metrics import compute_metrics
+
 
 def _ranks(x: np.ndarray) -> np.ndarray:
     """Ranks from 1, ties sharing their mean rank."""
@@ -49,21 +51,14 @@ def average_precision(y, score) -> float | None:
     return float(precision[hits].sum() / hits.sum())
 
 
-def _prf(y: np.ndarray, pred: np.ndarray) -> tuple[float, float, float]:
-    tp, fp, fn = int((y & pred).sum()), int((~y & pred).sum()), int((y & ~pred).sum())
-    precision = tp / (tp + fp) if tp + fp else 0.0
-    recall = tp / (tp + fn) if tp + fn else 0.0
-    return precision, recall, (2 * precision * recall / (precision + recall) if precision + recall else 0.0)
-
-
 def family_metrics(y, prob, names: list[str], threshold: float) -> dict:
     """Per-family and macro metrics of probabilities ``prob`` (N, K) against 0/1 ``y`` (N, K)."""
     y, prob = np.asarray(y, bool), np.asarray(prob, float)
     per = {}
     for k, name in enumerate(names):
-        precision, recall, f1 = _prf(y[:, k], prob[:, k] >= threshold)
-        per[name] = {"ap": average_precision(y[:, k], prob[:, k]), "f1": f1, "precision": precision, "recall": recall,
-                     "n_positive": int(y[:, k].sum())}
+        m = compute_metrics(y[:, k].astype(int), prob[:, k], threshold)
+        per[name] = {"ap": average_precision(y[:, k], prob[:, k]), "f1": m["f1"], "precision": m["precision"],
+                     "recall": m["recall"], "n_positive": int(y[:, k].sum())}
     scored = [m for m in per.values() if m["n_positive"]]
     return {"n": int(len(y)), "threshold": float(threshold), "families": per,
             "macro_ap": float(np.mean([m["ap"] for m in scored])) if scored else None,
