@@ -50,8 +50,9 @@ def rest_positions(obj, spec: Spec, seal: float, tab: float) -> np.ndarray:
     return co
 
 
-def prepare(scene, obj, spec: Spec, p: SampleParams) -> None:
-    """Enable the passes, give every material of ``obj`` the AOV output and store sample ``p``'s rest shape."""
+def prepare(scene, obj, spec: Spec, p: SampleParams) -> float:
+    """Enable the passes, give every material of ``obj`` the AOV output and store sample ``p``'s rest shape;
+    return the largest displacement of any vertex of the deformed mesh from it, in mm (world scale)."""
     layer = scene.view_layers[0]
     layer.use_pass_z = layer.use_pass_normal = True
     if AOV not in layer.aovs:
@@ -67,11 +68,14 @@ def prepare(scene, obj, spec: Spec, p: SampleParams) -> None:
     mesh.update()
     evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
     moved, rest_eval = _co(evaluated.vertices), _co(evaluated.attributes[REST].data, "vector")
-    if np.any(moved != rest_eval):  # deformed: measure from the rest shape placed where it fits best
-        r, t = maps.rigid_fit(rest_eval, moved)
-        attr = mesh.attributes[REST]
-        attr.data.foreach_set("vector", (rest @ r.T + t).astype(np.float32).ravel())
-        mesh.update()
+    if not np.any(moved != rest_eval):
+        return 0.0
+    r, t = maps.rigid_fit(rest_eval, moved)  # deformed: measure from the rest shape placed where it fits best
+    fitted = (rest @ r.T + t).astype(np.float32)
+    mesh.attributes[REST].data.foreach_set("vector", fitted.ravel())
+    mesh.update()
+    residual = (moved - (rest_eval @ r.T + t).astype(np.float32)).astype(float)  # what the fitted attribute holds
+    return float(np.linalg.norm(residual @ np.array(obj.matrix_world)[:3, :3].T, axis=1).max() * MM)
 
 
 def _add_aov(mat) -> None:
@@ -92,15 +96,6 @@ def _add_aov(mat) -> None:
     links.new(diff.outputs["Vector"], world.inputs["Vector"])
     links.new(world.outputs["Vector"], length.inputs[0])
     links.new(length.outputs["Value"], out.inputs["Value"])
-
-
-def max_displacement_mm(obj) -> float:
-    """Largest displacement of any vertex of the evaluated (deformed) mesh from its (fitted) rest position, in mm."""
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    mesh = obj.evaluated_get(depsgraph).data
-    moved = (_co(mesh.vertices) - _co(mesh.attributes[REST].data, "vector")).astype(float)
-    rot_scale = np.array(obj.matrix_world)[:3, :3]
-    return float(np.linalg.norm(moved @ rot_scale.T, axis=1).max() * MM)
 
 
 def _passes(scene, target: Path) -> dict[str, np.ndarray]:
@@ -139,10 +134,10 @@ def write_maps(scene, camera, alpha8: np.ndarray, layout: Layout, iid: str, thre
     maps.save_png(layout.image("mask", iid), maps.mask_image(mask))
     maps.save_png(layout.image("depth", iid), maps.encode_u16(depth, 1.0))
     maps.save_png(layout.image("normal", iid), maps.encode_normal(normal, mask))
-    maps.save_png(layout.image("deform", iid), maps.encode_u16(deform, maps.DEFORM_SCALE))
+    encoded = maps.encode_u16(deform, maps.DEFORM_SCALE)
+    maps.save_png(layout.image("deform", iid), encoded)
     maps.save_png(layout.image("region", iid), maps.mask_image(region))
-    stored = maps.encode_u16(deform, maps.DEFORM_SCALE) / maps.DEFORM_SCALE
-    return maps.map_stats(mask, stored, region)
+    return maps.map_stats(mask, encoded / maps.DEFORM_SCALE, region)
 
 
 def _fill(depth: np.ndarray, mask: np.ndarray, steps: int = 4) -> np.ndarray:

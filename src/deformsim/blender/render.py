@@ -97,8 +97,7 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[
     scene = ctx.scene
     seconds, rows = [], None
     if ctx.cfg.render.dense:
-        dense.prepare(scene, ctx.obj, ctx.spec, p)
-        sample_cols = {"max_disp_mm": dense.max_displacement_mm(ctx.obj), **dense.family_flags(ctx.spec, p)}
+        sample_cols = {"max_disp_mm": dense.prepare(scene, ctx.obj, ctx.spec, p), **dense.family_flags(ctx.spec, p)}
         rows = []
     for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
         cams.place(cam, cp, ctx.target, ctx.camera_scale)
