@@ -62,3 +62,47 @@ def test_deformation_extent_is_sampled_in_range(setup):
     cfg, spec = setup
     extents = np.array([sample_params(i, 5, cfg, spec, HDRIS).extent for i in range(0, 400, 2)])
     assert extents.min() >= 0.7 and extents.max() <= 1.5 and extents.std() > 0.1
+
+
+def test_lattice_only_runs_draw_what_they_drew_before_the_bank(setup):
+    """The bank draws from a stream of its own: a lattice-only config's samples equal a spec without simulation's."""
+    cfg, spec = setup
+    bare = type(spec).model_validate({**spec.model_dump(), "simulation": None})
+    for i in range(200):
+        assert sample_params(i, 3, cfg, spec, HDRIS) == sample_params(i, 3, cfg, bare, HDRIS)
+    mixed = load_config("quick", {"deform.sources.bank": 1.0, "deform.sources.both": 1.0})
+    for i in range(200):  # every draw but the deformation source is the same
+        a, b = sample_params(i, 3, cfg, spec, HDRIS), sample_params(i, 3, mixed, spec, HDRIS)
+        assert (a.cameras, a.hdri, a.design, a.seal, a.pose_tilt) == (b.cameras, b.hdri, b.design, b.seal, b.pose_tilt)
+
+
+def test_sources_weights_pick_lattice_bank_or_both(setup):
+    _, spec = setup
+    cfg = load_config("quick", {"deform.sources.lattice": 1.0, "deform.sources.bank": 2.0, "deform.sources.both": 1.0,
+                                "deform.bank_amount": [0.8, 0.9]})
+    entries = {f"{s.name}/{i}" for s in spec.simulation.scenarios for i in range(s.variants)}
+    counts = {"lattice": 0, "bank": 0, "both": 0}
+    for i in range(4000):
+        p = sample_params(i, 5, cfg, spec, HDRIS)
+        if not p.deformed:
+            assert p.bank == "" and p.bank_amount == 0
+            continue
+        lattice = any(p.keys.values())
+        if p.bank:
+            assert p.bank in entries and 0.8 <= p.bank_amount <= 0.9
+            assert p.families[-1] == p.bank.split("/")[0]
+        source = "both" if lattice and p.bank else ("bank" if p.bank else "lattice")
+        counts[source] += 1
+        assert any(p.displacement.values())  # crinkle goes with every source
+    total = sum(counts.values())
+    assert abs(counts["bank"] / total - 0.5) < 0.04 and abs(counts["lattice"] / total - 0.25) < 0.04
+    assert abs(counts["both"] / total - 0.25) < 0.04
+
+
+def test_bank_weights_need_a_simulation_and_a_positive_weight(setup):
+    from deformsim.errors import UserError
+
+    with pytest.raises(UserError, match="all 0"):
+        load_config("quick", {"deform.sources.lattice": 0})
+    with pytest.raises(UserError, match="bank_amount"):
+        load_config("quick", {"deform.bank_amount": [0.5, 2.0]})

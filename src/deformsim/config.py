@@ -85,13 +85,34 @@ class LightingConfig(_Model):
         return check_range(v, 0)
 
 
+class Sources(_Model):
+    """Relative weights of where a deformed sample's shape comes from: the spec's lattice keys (paper), an entry
+    of the simulated bank (``simulation:`` in the spec, baked on first use), or both at once."""
+
+    lattice: float = Field(1.0, ge=0)
+    bank: float = Field(0.0, ge=0)
+    both: float = Field(0.0, ge=0)
+
+    @model_validator(mode="after")
+    def _some(self) -> "Sources":
+        if self.lattice + self.bank + self.both <= 0:
+            raise ValueError("deform.sources weights are all 0: give lattice, bank or both a positive weight")
+        return self
+
+    @property
+    def uses_bank(self) -> bool:
+        return self.bank + self.both > 0
+
+
 class DeformConfig(_Model):
-    """How deformed samples mix the spec's keys (paper, section III-B)."""
+    """How deformed samples mix the spec's keys (paper, section III-B) and the simulated bank."""
 
     families: tuple[int, int] = (3, 5)
     use_families: list[str] | None = Field(None, description="simulate only these families of the spec")
     extent: Range = (0.7, 1.5)
     displacement: Range = (0.6, 1.0)
+    sources: Sources = Sources()
+    bank_amount: Range = Field((0.7, 1.0), description="weight of the drawn bank entry (1 = as simulated)")
 
     @field_validator("families")
     @classmethod
@@ -104,6 +125,14 @@ class DeformConfig(_Model):
     @classmethod
     def _pos(cls, v: Range) -> Range:
         return check_range(v, 0)
+
+    @field_validator("bank_amount")
+    @classmethod
+    def _amount(cls, v: Range) -> Range:
+        check_range(v, 0, name="bank_amount")
+        if v[1] > 1.5:
+            raise ValueError(f"bank_amount {list(v)} goes above 1.5 (extrapolates the simulation)")
+        return v
 
 
 class RenderConfig(_Model):
@@ -121,6 +150,7 @@ class RenderConfig(_Model):
     )
     dense: bool = Field(False, description="also write mask, depth, normal, deformation and region maps per image")
     region_threshold_mm: float = Field(1.0, gt=0, description="deformation (mm) from which a pixel is in the region")
+    creases: bool = Field(False, description="scuffed bare metal on sharp ridges and darkened folds (Cycles pointiness)")
     # Cycles quality/speed (bench/render_quality.py measures them); defaults are Blender's, max_bounces 6.
     adaptive: bool = Field(False, description="adaptive sampling: stop pixels whose noise is below the threshold")
     adaptive_threshold: float = Field(0.01, gt=0, le=1, description="adaptive sampling noise threshold")

@@ -177,3 +177,9 @@ def os_error_line(exc: OSError) -> tuple[str, int]:
     if exc.errno in DISK_FULL:
         return f"{exc.strerror}{where}: free some disk space, then rerun the same command", ResourceError.exit_code
     return f"{exc.strerror or exc}{where}: check the path and its permissions", UserError.exit_code
+
+
+def cache_dir() -> Path:
+    """Where converted weights, feature caches and deformation banks live: ``$DEFORMSIM_CACHE`` or
+    ``~/.cache/deformsim``."""
+    return Path(os.environ.get("DEFORMSIM_CACHE") or Path.home() / ".cache" / "deformsim")

@@ -63,6 +63,8 @@ class SampleParams:
     extent: float = 0.0
     pose_tilt: float = 0.0  # degrees away from upright
     pose_axis: float = 0.0  # azimuth (degrees) of the horizontal axis the object is tilted about
+    bank: str = ""  # simulated bank entry "SCENARIO/I" the sample uses ("" = none)
+    bank_amount: float = 0.0
 
     @property
     def deformed(self) -> bool:
@@ -109,6 +111,23 @@ def rng_for(seed: int, index: int) -> np.random.Generator:
     return np.random.default_rng([seed, index])
 
 
+def draw_source(index: int, seed: int, cfg: Config, spec: Spec) -> tuple[str, str, float]:
+    """(source, bank entry, amount) of a deformed sample: "lattice", "bank" or "both" by ``deform.sources``.
+
+    A stream of its own, so a run that never uses the bank draws exactly what it drew before the bank existed.
+    """
+    w = cfg.deform.sources
+    if not w.uses_bank:
+        return "lattice", "", 0.0
+    rng = np.random.default_rng([seed, index, 1])
+    weights = np.array([w.lattice, w.bank, w.both])
+    source = ("lattice", "bank", "both")[int(rng.choice(3, p=weights / weights.sum()))]
+    scenario = spec.simulation.scenarios[int(rng.integers(len(spec.simulation.scenarios)))]
+    entry = f"{scenario.name}/{int(rng.integers(scenario.variants))}"
+    amount = float(rng.uniform(*cfg.deform.bank_amount))
+    return (source, entry, amount) if source != "lattice" else (source, "", 0.0)
+
+
 def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[str]) -> SampleParams:
     """Draw sample ``index`` of a run seeded ``seed``. ``hdris`` are the available HDRI names."""
     if not hdris:
@@ -133,12 +152,17 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
     mixes = [rng.dirichlet(np.ones(len(spec.families[f].keys))) for f in chosen]
     disp_w = rng.uniform(0.05, 1.0, size=len(disp))
     disp_scale = float(rng.uniform(*d.displacement))
+    bank, bank_amount = "", 0.0
     if label == "deformed":
-        families = tuple(spec.families[f].name for f in chosen)
-        extent = draw_extent
-        for f, w, mix in zip(chosen, fam_w, mixes):
-            for key, m in zip(spec.families[f].keys, mix):
-                keys[key.name] = float(w * m)
+        source, bank, bank_amount = draw_source(index, seed, cfg, spec)
+        if source != "bank":
+            families = tuple(spec.families[f].name for f in chosen)
+            extent = draw_extent
+            for f, w, mix in zip(chosen, fam_w, mixes):
+                for key, m in zip(spec.families[f].keys, mix):
+                    keys[key.name] = float(w * m)
+        if bank:
+            families += (bank.split("/")[0],)
         if disp:
             disp_w = disp_w / disp_w.sum() * disp_scale
             disp = {t: float(v) for t, v in zip(disp, disp_w)}
@@ -201,4 +225,6 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
         extent=extent,
         pose_tilt=pose_tilt,
         pose_axis=pose_axis,
+        bank=bank,
+        bank_amount=bank_amount,
     )

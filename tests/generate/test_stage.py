@@ -143,6 +143,11 @@ def test_bad_input_fails_before_any_output(tmp_path):
         with pytest.raises(UserError, match=needle):
             generate(load_config("quick", {**TINY, **overrides}), out, progress=False)
     assert not out.exists()
+    no_sim = tmp_path / "spec.yaml"
+    no_sim.write_text("name: plain\nbuiltin: can\nfamilies: [{name: f, keys: [{name: k, ops: [{op: twist, angle: 9}]}]}]\n")
+    with pytest.raises(UserError, match="spec 'plain' declares no simulation scenarios"):
+        generate(load_config("quick", {**TINY, "object.spec": no_sim, "deform.sources.bank": 1}), out, progress=False)
+    assert not out.exists()
     run = subprocess.run(cli(*tiny_args(out), "--object", str(tmp_path / "part.stl")), cwd=ROOT, env=env(),
                          capture_output=True, text=True)
     assert run.returncode == 2 and "mesh file not found" in run.stderr and "Traceback" not in run.stderr

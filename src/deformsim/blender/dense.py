@@ -154,4 +154,4 @@ def _fill(depth: np.ndarray, mask: np.ndarray, steps: int = 4) -> np.ndarray:
 
 
 def family_flags(spec: Spec, p: SampleParams) -> dict[str, int]:
-    return {f"family_{f.name}": int(f.name in p.families) for f in spec.families}
+    return {f"family_{name}": int(name in p.families) for name in [f.name for f in spec.families] + spec.scenario_names}

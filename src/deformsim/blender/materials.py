@@ -20,6 +20,15 @@ _KINDS = {  # Principled settings per spec material kind
     "plastic": {"Metallic": 0.0, "Coat Weight": 0.0, "Anisotropic": 0.0},
     "painted": {"Metallic": 0.0, "Coat Weight": 0.6, "Anisotropic": 0.0},
 }
+# Crease layer (Cycles' Geometry "Pointiness": 0.5 flat, above convex, below concave), see add_creases.
+CREASE_GEOMETRY = "CreaseGeometry"  # its Geometry node; present = the material has the layer
+CREASE_IN = "Crease In "  # + BSDF input name: the mix whose A input takes that input's (per-sample) value
+RIDGE = (0.53, 0.58)  # pointiness from which a ridge starts to show bare metal, and where it is fully bare
+FOLD = (0.485, 0.44)  # pointiness from which a fold starts to darken, and where it is fully dark
+FOLD_DARKEN = 0.3  # base colour factor in a full fold
+BARE = {"Base Color": (0.8, 0.8, 0.82, 1.0), "Metallic": 1.0, "Roughness": 0.45, "Coat Weight": 0.0}
+SCUFF_SCALE = 350.0  # noise scale (per metre, object space) breaking the ridge mask into scuffs
+_creases = False  # set by enable_creases: OBJECT_MATERIAL gets the layer when it is created
 
 
 def _material(name: str) -> tuple[bpy.types.Material, bool]:
@@ -33,8 +42,17 @@ def _bsdf(mat: bpy.types.Material) -> bpy.types.Node:
 
 
 def _set(bsdf: bpy.types.Node, values: dict) -> None:
+    """Set BSDF inputs; where the crease layer sits in front of one, its entry mix takes the value."""
     for name, value in values.items():
         bsdf.inputs[name].default_value = value
+        entry = bsdf.id_data.nodes.get(CREASE_IN + name)
+        if entry is not None:
+            _socket(entry.inputs, "A_Color" if entry.data_type == "RGBA" else "A_Float").default_value = value
+
+
+def _socket(sockets, identifier: str):
+    """The socket with this identifier (Mix nodes have several sockets of each name)."""
+    return next(s for s in sockets if s.identifier == identifier)
 
 
 def _bump(mat: bpy.types.Material, bsdf: bpy.types.Node, scale: float, strength: float) -> None:
@@ -50,6 +68,86 @@ def _bump(mat: bpy.types.Material, bsdf: bpy.types.Node, scale: float, strength:
     links.new(coord.outputs["Object"], noise.inputs["Vector"])
     links.new(noise.outputs["Fac"], bump.inputs["Height"])
     links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+
+
+def _map_range(nodes, value, lo: float, hi: float) -> bpy.types.NodeSocket:
+    """Clamped linear 0..1 ramp of ``value`` from ``lo`` to ``hi`` (``hi < lo``: a falling ramp)."""
+    ramp = nodes.new("ShaderNodeMapRange")
+    ramp.clamp = True
+    ramp.inputs["From Min"].default_value, ramp.inputs["From Max"].default_value = lo, hi
+    value.id_data.links.new(value, ramp.inputs["Value"])
+    return ramp.outputs["Result"]
+
+
+def _mix_into(bsdf: bpy.types.Node, name: str, factor, target, blend: str = "MIX") -> None:
+    """Put a Mix (A = what fed input ``name`` so far, B = ``target``, by ``factor``) in front of that input."""
+    tree = bsdf.id_data
+    sock = bsdf.inputs[name]
+    color = sock.type == "RGBA"
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type, mix.blend_type = ("RGBA" if color else "FLOAT"), blend
+    kind = "Color" if color else "Float"
+    a, b = _socket(mix.inputs, f"A_{kind}"), _socket(mix.inputs, f"B_{kind}")
+    b.default_value = target
+    tree.links.new(factor, _socket(mix.inputs, "Factor_Float"))
+    if sock.is_linked:
+        tree.links.new(sock.links[0].from_socket, a)
+    else:  # a constant: this mix becomes the input's entry, where _set writes later values
+        a.default_value = sock.default_value
+        mix.name = CREASE_IN + name
+    tree.links.new(_socket(mix.outputs, f"Result_{kind}"), sock)
+
+
+def add_creases(mat: bpy.types.Material, ridges: bool = True) -> None:
+    """Insert the crease layer in front of ``mat``'s Principled BSDF (once; no-op if it is there).
+
+    Folds (pointiness below :data:`FOLD`) darken the base colour towards :data:`FOLD_DARKEN` times itself;
+    with ``ridges``, sharp convex ridges (above :data:`RIDGE`) turn to scuffed bare aluminium (:data:`BARE`:
+    bright base colour, metallic, rougher, no coat), the mask broken up by a small noise so it reads as
+    scuffing rather than a clean line. Constant BSDF inputs move to the mixes' A inputs (see :func:`_set`).
+    """
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    if CREASE_GEOMETRY in nodes:
+        return
+    bsdf = _bsdf(mat)
+    geo = nodes.new("ShaderNodeNewGeometry")
+    geo.name = CREASE_GEOMETRY
+    pointiness = geo.outputs["Pointiness"]
+    _mix_into(bsdf, "Base Color", _map_range(nodes, pointiness, *FOLD), (FOLD_DARKEN,) * 3 + (1.0,), "MULTIPLY")
+    if not ridges:
+        return
+    coord = nodes.new("ShaderNodeTexCoord")
+    noise = nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = SCUFF_SCALE
+    noise.inputs["Detail"].default_value = 6.0
+    noise.inputs["Roughness"].default_value = 0.65
+    links.new(coord.outputs["Object"], noise.inputs["Vector"])
+    scuff = nodes.new("ShaderNodeMapRange")
+    scuff.clamp = True
+    scuff.inputs["From Min"].default_value, scuff.inputs["From Max"].default_value = 0.35, 0.6
+    scuff.inputs["To Min"].default_value = 0.25
+    links.new(noise.outputs["Fac"], scuff.inputs["Value"])
+    mask = nodes.new("ShaderNodeMath")
+    mask.operation, mask.use_clamp = "MULTIPLY", True
+    links.new(_map_range(nodes, pointiness, *RIDGE), mask.inputs[0])
+    links.new(scuff.outputs["Result"], mask.inputs[1])
+    for name, target in BARE.items():
+        _mix_into(bsdf, name, mask.outputs["Value"], target)
+
+
+def enable_creases(obj: bpy.types.Object, enabled: bool = True) -> None:
+    """Switch the crease layer on (``render.creases``): once per process, after the object is built.
+
+    The can's "Label" gets ridges and folds, its bare "Aluminium" folds only; a user mesh's material gets
+    both when :func:`apply_material` creates it (or now, if it exists). Off, no material is touched.
+    """
+    global _creases
+    _creases = enabled
+    if not enabled:
+        return
+    for mat in obj.data.materials:
+        if mat is not None and mat.name in ("Label", "Aluminium", OBJECT_MATERIAL):
+            add_creases(mat, ridges=mat.name != "Aluminium")
 
 
 def label_image(width: int = 512, height: int = 256) -> bpy.types.Image:
@@ -106,6 +204,8 @@ def apply_material(obj: bpy.types.Object, spec_material: Material, params: Mater
     bsdf = _bsdf(mat)
     if new:
         _bump(mat, bsdf, 1200.0, 0.02)
+    if _creases:
+        add_creases(mat)
     _set(bsdf, {**_KINDS[spec_material.kind], "Base Color": (*params.color, 1.0), "Roughness": params.roughness,
                 "Coat Roughness": 0.1})
     mats = obj.data.materials

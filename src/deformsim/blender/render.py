@@ -79,7 +79,7 @@ def _render_to_array(scene, target: Path) -> tuple[np.ndarray, float]:
 
 def apply_state(ctx: RenderContext, p: SampleParams) -> None:
     """Put the scene in sample ``p``'s state (deformation, openings, surface, lighting)."""
-    ctx.rig.set(p.keys, p.displacement, p.seal, p.tab)
+    ctx.rig.set(p.keys, p.displacement, p.seal, p.tab, p.bank, p.bank_amount)
     set_pose(ctx.pivot, p.pose_tilt, p.pose_axis)
     if p.design is not None:
         materials.set_label(p.design)

@@ -33,14 +33,20 @@ def mesh_bounds(obj) -> tuple[np.ndarray, np.ndarray]:
     return world.min(0), world.max(0)
 
 
+BANK_PREFIX = "bank:"
+
+
 @dataclass
 class Rig:
     obj: object
     lattice: object
     spec: Spec
+    bank: tuple[str, ...] = ()  # simulated entries loaded as mesh keys ``bank:NAME``
 
-    def set(self, keys: dict[str, float], displacement: dict[str, float], seal: float = 0.0, tab: float = 0.0) -> None:
-        """Set every lattice key, crinkle key and opening key; unknown names raise ValueError."""
+    def set(self, keys: dict[str, float], displacement: dict[str, float], seal: float = 0.0, tab: float = 0.0,
+            bank: str = "", bank_amount: float = 0.0) -> None:
+        """Set every lattice key, crinkle key, opening key and bank key (``bank`` at ``bank_amount``, the rest 0);
+        unknown names raise ValueError."""
         lat_keys = self.lattice.data.shape_keys.key_blocks
         mesh_keys = self.obj.data.shape_keys.key_blocks if self.obj.data.shape_keys else {}
         for values, names, kind in ((keys, self.spec.key_names, "lattice key"),
@@ -55,6 +61,22 @@ class Rig:
         for name, value in ((self.spec.openings.seal, seal), (self.spec.openings.tab, tab)):
             if name:
                 mesh_keys[name].value = float(value)
+        if bank and bank not in self.bank:
+            raise ValueError(f"bank entry '{bank}' is not loaded (baked bank has {len(self.bank)} entries)")
+        for name in self.bank:
+            mesh_keys[BANK_PREFIX + name].value = float(bank_amount) if name == bank else 0.0
+
+    def load_bank(self, names: list[str], positions: np.ndarray) -> None:
+        """Add each simulated entry as a mesh shape key (relative to the Basis, so openings still apply)."""
+        if positions.shape[1] != len(self.obj.data.vertices):
+            raise UserError(f"the baked bank has {positions.shape[1]} vertices per entry, the part "
+                            f"{len(self.obj.data.vertices)}: bake again (deformsim bake --force)")
+        for name, co in zip(names, positions):
+            block = self.obj.shape_key_add(name=BANK_PREFIX + name, from_mix=False)
+            block.slider_max = SLIDER_MAX
+            block.value = 0.0
+            block.data.foreach_set("co", np.ascontiguousarray(co, dtype=np.float32).ravel())
+        self.bank = tuple(names)
 
 
 def build_rig(obj, spec: Spec) -> Rig:

@@ -2,8 +2,9 @@
 
 JSON lines on stdin, one reply line each on the real stdout (Blender's own prints go to stderr):
 
-- ``{"setup": {"config": {...}, "spec_path": str|null, "out": str, "threads": int}}`` builds the scene
-  once -> ``{"ready": true, "device": str, "camera_scale": float, "object_size": [dx, dy, dz], "pid": int}``
+- ``{"setup": {"config": {...}, "spec_path": str|null, "out": str, "threads": int, "bank": str|null}}`` builds the
+  scene once (``bank``: a baked bank folder, its entries become shape keys)
+  -> ``{"ready": true, "device": str, "camera_scale": float, "object_size": [dx, dy, dz], "pid": int}``
 - ``{"render": SampleParams.to_dict()}`` -> ``{"done": index, "render_seconds": [...], "dense": [{...}]|null}``
   (``dense``: each image's dense-map manifest columns, with ``render.dense``) or
   ``{"error": index, "message": str, "traceback": str}`` (the worker lives on)
@@ -38,6 +39,7 @@ def setup(msg: dict):
     import bpy
     import numpy as np
 
+    from deformsim.blender import materials
     from deformsim.blender import scene as scn
     from deformsim.blender.cameras import make_cameras
     from deformsim.blender.pose import make_pivot
@@ -60,10 +62,16 @@ def setup(msg: dict):
         from deformsim.blender.mesh_import import import_mesh
 
         obj = import_mesh(cfg.object.mesh, spec)
+    materials.enable_creases(obj, cfg.render.creases)
     lo, hi = mesh_bounds(obj)
     size = hi - lo
     camera_scale = 1.0 if cfg.object.mesh is None else float(size.max() / REFERENCE_SIZE)
     rig = build_rig(obj, spec)
+    if msg.get("bank"):
+        from deformsim.bank.store import load_bank
+
+        bank = load_bank(msg["bank"])
+        rig.load_bank(bank.names, bank.positions)
     pivot = make_pivot(scene, (lo + hi) / 2, [obj, rig.lattice])
     world = World(scene, cfg.lighting.hdri_dir)
     cameras = make_cameras(scene, len(cfg.camera.azimuth_quadrants), cfg.camera.lens_mm, camera_scale)

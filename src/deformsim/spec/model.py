@@ -17,6 +17,7 @@ from pydantic import ConfigDict, Field, ValidationError, field_validator, model_
 from deformsim.errors import UserError
 from deformsim.schema import Range, StrictModel, check_range, read_mapping
 from deformsim.spec.lattice_ops import OPERATIONS
+from deformsim.spec.simulation import Simulation
 
 BUILTIN_SPEC = Path(__file__).parent / "builtin" / "can.yaml"
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".gltf", ".fbx")
@@ -177,6 +178,7 @@ class Spec(StrictModel):
     displacement: Displacement | None = None
     openings: Openings = Openings()
     material: Material | None = None
+    simulation: Simulation | None = Field(None, description="physically simulated deformations (a baked bank)")
 
     @field_validator("units")
     @classmethod
@@ -197,7 +199,14 @@ class Spec(StrictModel):
         fams = [f.name for f in self.families]
         if len(set(fams)) != len(fams):
             raise ValueError("duplicate family names")
+        clash = sorted(set(fams) & set(self.scenario_names))
+        if clash:
+            raise ValueError(f"scenario names that are also family names: {', '.join(clash)}")
         return self
+
+    @property
+    def scenario_names(self) -> list[str]:
+        return [s.name for s in self.simulation.scenarios] if self.simulation else []
 
     @property
     def key_names(self) -> list[str]:

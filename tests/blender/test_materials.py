@@ -1,0 +1,116 @@
+"""Crease layer (render.creases): Cycles pointiness drives scuffed bare metal on ridges and darker folds."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.blender.conftest import TINY_RENDER, run_blender
+
+pytestmark = pytest.mark.blender
+
+NODES = """
+import json, bpy
+from deformsim.blender import dense, materials
+from deformsim.blender.can import build_can
+from deformsim.sampling import MaterialParams
+from deformsim.spec.model import Material
+bpy.ops.wm.read_factory_settings(use_empty=True)
+
+def pointiness_linked(mat):
+    return any(n.type == "NEW_GEOMETRY" and n.outputs["Pointiness"].is_linked for n in mat.node_tree.nodes)
+
+def entry(mat, name, ident):
+    node = mat.node_tree.nodes[materials.CREASE_IN + name]
+    return next(s for s in node.inputs if s.identifier == ident).default_value
+
+out = {}
+can = build_can()
+bpy.ops.mesh.primitive_cube_add()
+cube = bpy.context.active_object
+apply = lambda kind, color, rough: materials.apply_material(cube, Material(kind=kind), MaterialParams(color, rough))
+apply("plastic", (0.1, 0.2, 0.3), 0.4)
+user = cube.data.materials[0]
+out["off"] = [pointiness_linked(m) for m in (can.data.materials["Label"], can.data.materials["Aluminium"], user)]
+out["off_bsdf_color_linked"] = materials._bsdf(user).inputs["Base Color"].is_linked
+materials.enable_creases(can)
+apply("painted", (0.7, 0.1, 0.05), 0.6)
+apply("metal", (0.5, 0.4, 0.3), 0.2)  # repeated calls: the layer is added once, values reach its entries
+n_nodes = len(user.node_tree.nodes)
+apply("metal", (0.5, 0.4, 0.3), 0.2)
+out["on"] = [pointiness_linked(m) for m in (can.data.materials["Label"], can.data.materials["Aluminium"], user)]
+out["nodes_stable"] = len(user.node_tree.nodes) == n_nodes
+out["user_color"] = list(entry(user, "Base Color", "A_Color"))
+out["user_metallic"] = entry(user, "Metallic", "A_Float")
+out["user_rough"] = entry(user, "Roughness", "A_Float")
+label_bsdf = materials._bsdf(can.data.materials["Label"])
+src = label_bsdf.inputs["Base Color"]
+chain = []  # walk the Base Color mixes back to the label image
+while src is not None and src.is_linked:
+    node = src.links[0].from_node
+    chain.append(node.type)
+    src = next((s for s in node.inputs if s.identifier == "A_Color"), None)
+out["label_chain"] = chain
+for mat in can.data.materials:
+    dense._add_aov(mat)  # the dense AOV output still links into a material with the layer
+out["aov"] = all(dense.AOV_NODE in m.node_tree.nodes for m in can.data.materials)
+print(json.dumps(out))
+"""
+
+RENDER = """
+import dataclasses, json, sys, tempfile
+from pathlib import Path
+import bpy, numpy as np
+from deformsim.blender import cameras as cams, materials, worker
+from deformsim.blender.render import apply_state, _render_to_array
+from deformsim.config import load_config
+from deformsim.hdri import list_hdris
+from deformsim.sampling import CanDesign, sample_params
+
+cfg = load_config("quick", {**%(tiny)r, "camera.azimuth_quadrants": [(20, 70)]})
+tmp = Path(tempfile.mkdtemp())
+ctx, _, _ = worker.setup({"config": cfg.model_dump(mode="json"), "spec_path": None, "out": str(tmp)})
+base = sample_params(0, 5, cfg, ctx.spec, list_hdris(None))
+design = CanDesign(hue=0.0, saturation=0.9, value=0.55, accent_hue=0.6, bands=3, band_seed=7, word="COLA")
+zk, zd = dict.fromkeys(base.keys, 0.0), dict.fromkeys(base.displacement, 0.0)
+states = {"intact": (zk, zd), "deformed": ({**zk, "crush_middle": 0.6}, dict.fromkeys(zd, 1.5))}
+
+def render(name):
+    k, d = states[name]
+    apply_state(ctx, dataclasses.replace(base, keys=k, displacement=d, seal=0.0, tab=0.0, design=design))
+    cam = ctx.cameras[0]
+    cams.place(cam, dataclasses.replace(base.cameras[0], radius=0.2), ctx.target, ctx.camera_scale)
+    ctx.scene.camera = cam
+    return _render_to_array(ctx.scene, tmp / f"{name}.png")[0].astype(float)
+
+off = {n: render(n) for n in states}
+materials.enable_creases(ctx.obj)
+on = {n: render(n) for n in states}
+out = {}
+for n in states:
+    cover = (off[n][..., 3] == 255) & (on[n][..., 3] == 255)
+    a, b = off[n][cover][:, :3], on[n][cover][:, :3]
+    out[n] = dict(diff=float(np.abs(a - b).mean()), sat_off=float(np.ptp(a, axis=1).mean()),
+                  sat_on=float(np.ptp(b, axis=1).mean()), covered=int(cover.sum()))
+print(json.dumps(out))
+""" % {"tiny": TINY_RENDER}
+
+
+def test_crease_layer_only_when_enabled():
+    out = run_blender(NODES)
+    assert out["off"] == [False, False, False]
+    assert not out["off_bsdf_color_linked"], "without creases the user material keeps its constant Base Color"
+    assert out["on"] == [True, True, True]
+    assert out["nodes_stable"]
+    assert out["user_color"] == pytest.approx([0.5, 0.4, 0.3, 1.0])
+    assert out["user_metallic"] == pytest.approx(1.0) and out["user_rough"] == pytest.approx(0.2)
+    assert out["label_chain"] == ["MIX", "MIX", "TEX_IMAGE"], "label image -> fold darken -> bare metal -> BSDF"
+    assert out["aov"]
+
+
+def test_creases_show_on_a_crinkled_can_only():
+    out = run_blender(RENDER)
+    intact, deformed = out["intact"], out["deformed"]
+    assert intact["covered"] > 300 and deformed["covered"] > 300
+    assert intact["diff"] < 0.5, "an intact can must look the same"
+    assert deformed["diff"] > 4 * max(intact["diff"], 0.5)
+    assert deformed["sat_on"] < deformed["sat_off"], "scuffed ridges are grey bare metal"
