@@ -46,6 +46,8 @@ def bake(spec: Spec, spec_path: str | Path | None, mesh: str | Path | None, prog
                                         "mesh": str(mesh) if mesh else None, "entries": entries})
         for f in work.glob("[0-9]*.npy"):
             f.unlink()
+        if is_complete(final, spec) and not force:  # another process baked the same bank meanwhile
+            return final
         if final.exists():  # force: the old bank goes only once the new one is complete
             old = final.with_name(f".{final.name}.old")
             final.rename(old)

@@ -21,7 +21,7 @@ from deformsim.outputs import cache_dir
 from deformsim.spec.model import Spec
 from deformsim.spec.simulation import entry_names
 
-BAKE_REVISION = 1  # bump when the simulation code changes what a bake produces
+BAKE_REVISION = 2  # bump when the simulation code changes what a bake produces
 
 
 def bank_key(spec: Spec, mesh: str | Path | None) -> str:

@@ -3,8 +3,9 @@
 The part is remeshed into an even voxel shell (:func:`make_proxy`) and simulated as stiff cloth with
 self-collision, at a normalised size (largest dimension :data:`SIM_SIZE` m; Blender's collision distances
 misbehave at a few centimetres). Rigid plates, spheres, cylinders or boxes move on straight keyframed paths
-(see :mod:`deformsim.spec.simulation` for the scenarios). A Surface Deform modifier bound at rest carries the
-shell's final shape onto every vertex of the render mesh, so a bank entry is a position per render vertex.
+(see :mod:`deformsim.spec.simulation` for the scenarios). Every render-mesh vertex is bound at rest to its
+nearest shell triangle (barycentric weights and an offset along the normal) and follows it, so a bank entry
+is a position per render vertex.
 """
 
 from __future__ import annotations
@@ -53,9 +54,12 @@ def _link(obj):
 
 
 class Rest:
-    """The part at simulation scale: its render-mesh copy, the cloth proxy, their bounds and scale."""
+    """The part at simulation scale: its render-mesh copy, the cloth proxy, their bounds and scale.
+
+    ``to_part`` maps simulation coordinates back to the part's object space."""
 
     def __init__(self, part, sim: Simulation):
+        """Copy ``part``'s Basis shape, scaled so its largest dimension is SIM_SIZE, standing on z = 0."""
         self.render = _link(bpy.data.objects.new("BakeRender", part.data.copy()))
         if self.render.data.shape_keys:
             self.render.shape_key_clear()
@@ -63,19 +67,21 @@ class Rest:
         self.lo, self.hi = co.min(0), co.max(0)
         self.scale = SIM_SIZE / float((self.hi - self.lo).max())
         self.centre = (self.lo + self.hi) / 2
-        self.render.scale = (self.scale,) * 3
-        self.render.location = (*(-self.centre[:2] * self.scale), -self.lo[2] * self.scale)  # on z = 0
+        self.offset = np.array([-self.centre[0], -self.centre[1], -self.lo[2]]) * self.scale  # standing on z = 0
+        self.render.data.transform(Matrix.Translation(Vector(self.offset)) @ Matrix.Scale(self.scale, 4))
         self.proxy = make_proxy(self.render, SIM_SIZE / sim.resolution)
         self.size = (self.hi - self.lo) * self.scale  # extent at simulation scale (m)
 
+    def to_part(self, co: np.ndarray) -> np.ndarray:
+        return (co - self.offset) / self.scale
+
 
 def make_proxy(render, voxel: float):
-    """A voxel-remeshed copy of ``render`` (same transform): an even, closed shell for the cloth."""
+    """A voxel-remeshed copy of ``render`` (``voxel`` in its mesh units): an even, closed shell for the cloth."""
     proxy = _link(bpy.data.objects.new("BakeProxy", render.data.copy()))
-    proxy.location, proxy.scale = render.location, render.scale
     mod = proxy.modifiers.new("Remesh", "REMESH")
     mod.mode = "VOXEL"
-    mod.voxel_size = voxel / render.scale[0]  # local units
+    mod.voxel_size = voxel
     mod.use_smooth_shade = True
     with bpy.context.temp_override(object=proxy, active_object=proxy, selected_objects=[proxy]):
         bpy.ops.object.modifier_apply(modifier=mod.name)
@@ -216,13 +222,10 @@ def simulate(part, sim: Simulation, scenario: Scenario, v: Variant) -> tuple[np.
     frames = sim.frames
     _cloth(rest.proxy, sim, frames)
     setup_scenario(rest, scenario, v, frames)
-    bind = rest.render.modifiers.new("Follow", "SURFACE_DEFORM")
-    bind.target = rest.proxy
     scene.frame_start, scene.frame_end = 1, frames + SETTLE + 1
     scene.frame_set(1)
-    with bpy.context.temp_override(object=rest.render, active_object=rest.render):
-        bpy.ops.object.surfacedeform_bind(modifier=bind.name)
     start = _co(rest.render.data)
+    binding = bind(_co(rest.proxy.data), _triangles(rest.proxy.data), start)
     t0 = time.perf_counter()
     for f in range(2, frames + SETTLE + 1):
         scene.frame_set(f)
@@ -230,9 +233,8 @@ def simulate(part, sim: Simulation, scenario: Scenario, v: Variant) -> tuple[np.
     scene.frame_set(frames + SETTLE + 1)
     after = _evaluated(rest.proxy)
     seconds = time.perf_counter() - t0
-    moved = _evaluated(rest.render)
+    start, moved = rest.to_part(start), rest.to_part(follow(binding, after))
     where = f"scenario '{scenario.name}' entry {v.index}"
-    scale = rest.scale
     if not np.isfinite(moved).all() or len(moved) != len(start):
         raise SimulationError(f"{where}: the simulation exploded (non-finite vertices)")
     size = float(np.ptp(start, axis=0).max())
@@ -242,7 +244,7 @@ def simulate(part, sim: Simulation, scenario: Scenario, v: Variant) -> tuple[np.
         raise SimulationError(f"{where}: the simulation exploded (a vertex {outside:.2f} part sizes outside the "
                               f"part's box, an edge stretched {stretch:.1f}x)")
     disp = np.linalg.norm(moved - start, axis=1)
-    step = float(np.linalg.norm(after - before, axis=1).max()) * scale / SIM_SIZE
+    step = float(np.linalg.norm(after - before, axis=1).max()) / SIM_SIZE
     if step > UNSETTLED:
         raise SimulationError(f"{where}: the simulation did not converge (still moving {step:.3f}x the part size "
                               "per frame after the colliders stopped)")
@@ -254,14 +256,53 @@ def simulate(part, sim: Simulation, scenario: Scenario, v: Variant) -> tuple[np.
     return moved.astype(np.float32), stats
 
 
+def _triangles(mesh) -> np.ndarray:
+    mesh.calc_loop_triangles()
+    tris = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get("vertices", tris)
+    return tris.reshape(-1, 3)
+
+
+def bind(shell: np.ndarray, tris: np.ndarray, points: np.ndarray) -> tuple:
+    """Attach each point to its nearest shell triangle: (triangle vertex indices, barycentric weights, signed
+    offset along the triangle's normal), so that :func:`follow` carries it along when the shell deforms."""
+    tree = BVHTree.FromPolygons([tuple(v) for v in shell], [tuple(t) for t in tris])
+    hits = [tree.find_nearest(tuple(p)) for p in points]
+    nearest = np.array([h[0][:] for h in hits])
+    face = np.array([h[2] for h in hits])
+    corners = tris[face]
+    a, b, c = (shell[corners[:, k]] for k in range(3))
+    v0, v1, v2 = b - a, c - a, nearest - a
+    d00, d01, d11 = (v0 * v0).sum(1), (v0 * v1).sum(1), (v1 * v1).sum(1)
+    d20, d21 = (v2 * v0).sum(1), (v2 * v1).sum(1)
+    den = np.where(np.abs(d00 * d11 - d01 ** 2) > 1e-20, d00 * d11 - d01 ** 2, 1.0)
+    wb, wc = (d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den
+    weights = np.stack([1 - wb - wc, wb, wc], axis=1)
+    offset = ((points - nearest) * _normals(a, b, c)).sum(1)
+    return corners, weights, offset
+
+
+def follow(binding: tuple, shell: np.ndarray) -> np.ndarray:
+    """The bound points on the deformed ``shell`` (positions of the same vertices)."""
+    corners, weights, offset = binding
+    a, b, c = (shell[corners[:, k]] for k in range(3))
+    return a * weights[:, :1] + b * weights[:, 1:2] + c * weights[:, 2:] + _normals(a, b, c) * offset[:, None]
+
+
+def _normals(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    n = np.cross(b - a, c - a)
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
+
+
 def _stretch(proxy, moved: np.ndarray) -> float:
-    """The largest ratio of an edge's length in ``moved`` to its rest length, over the shell's edges."""
+    """The largest ratio of an edge's length in ``moved`` to its rest length (at least half the median edge)."""
     ev = np.empty(len(proxy.data.edges) * 2, np.int32)
     proxy.data.edges.foreach_get("vertices", ev)
     a, b = ev[0::2], ev[1::2]
     rest = _co(proxy.data)
     before = np.linalg.norm(rest[a] - rest[b], axis=1)
-    return float(np.max(np.linalg.norm(moved[a] - moved[b], axis=1) / np.maximum(before, 1e-12)))
+    floor = 0.5 * float(np.median(before))  # the remesher leaves a few tiny edges: measure them against a typical one
+    return float(np.max(np.linalg.norm(moved[a] - moved[b], axis=1) / np.maximum(before, floor)))
 
 
 def _shell_checks(proxy, moved: np.ndarray) -> tuple[float, float]:
