@@ -39,6 +39,17 @@ class Engine:
 
         return generate(self.config, Path(out), progress=self.progress, overwrite=overwrite)
 
+    def bake(self, force: bool = False) -> Path:
+        """Simulate the spec's ``simulation:`` scenarios into the cached bank (reused when cached; ``force``
+        simulates again); the bank folder. ``generate`` bakes on first use when ``deform.sources`` uses it."""
+        from deformsim.bank.stage import bake
+        from deformsim.generate.stage import check_part
+        from deformsim.spec.model import load_spec
+
+        spec = load_spec(self.config.object.spec)
+        check_part(spec, self.config.object.mesh)
+        return bake(spec, self.config.object.spec, self.config.object.mesh, progress=self.progress, force=force)
+
     def composite(self, data: str | Path, name: str | None = None, seed: int = 0,
                   backgrounds: str | Path | None = None) -> Path:
         """Put every image of ``data`` on background photos (or procedural ones); the variant folder."""

@@ -39,3 +39,17 @@ def test_no_simulation_no_key():
     spec = _variant(load_spec(), simulation=None)
     with pytest.raises(ValueError, match="declares no simulation"):
         bank_key(spec, None)
+
+
+def test_a_rebaked_bank_makes_a_new_dataset_identity(monkeypatch):
+    """Renders made from one bank are never resumed with another: the bank key is part of the data identity."""
+    from deformsim.bank import store
+    from deformsim.config import load_config
+    from deformsim.generate.stage import data_name
+
+    lattice = load_config("quick", {})
+    bank = load_config("quick", {"deform.sources.bank": 1})
+    before = data_name(bank), data_name(lattice)
+    monkeypatch.setattr(store, "BAKE_REVISION", store.BAKE_REVISION + 1)
+    assert data_name(bank) != before[0]
+    assert data_name(lattice) == before[1]  # a lattice-only dataset does not depend on the bank

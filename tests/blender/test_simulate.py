@@ -80,6 +80,9 @@ def test_cached_bank_is_reused_and_a_changed_scenario_rebakes(baked, monkeypatch
     assert bake(load_spec(spec_path), spec_path, None, progress=False) == path
     assert time.perf_counter() - t0 < min(1.0, first_seconds / 4)
     assert (path / "bank.npz").stat().st_mtime_ns == stamp
+    from deformsim import Engine
+
+    assert Engine("quick", {"object.spec": spec_path}).bake() == path  # the Python API finds the same bank
     other = _spec(tmp, "other.yaml", travel=0.3)
     again = bake(load_spec(other), other, None, progress=False)
     assert again != path and again.is_dir() and path.is_dir()

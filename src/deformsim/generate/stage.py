@@ -25,6 +25,7 @@ import yaml
 
 from deformsim.atomic import write_json, write_text
 from deformsim.bank.stage import bake
+from deformsim.bank.store import bank_key
 from deformsim.config import Config, dump_config
 from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import consolidate, read_record
@@ -75,7 +76,8 @@ def n_samples(cfg: Config) -> int:
 
 def input_digests(cfg: Config, spec: Spec | None = None) -> dict:
     """What the renders are made from, by content: sha256 of the mesh file, of the parsed spec (so a comment
-    or a reformatting does not count, a changed range does) and of the HDRI files."""
+    or a reformatting does not count, a changed range does), of the HDRI files, and the simulated bank's key
+    when the samples use it."""
     spec = spec or load_spec(cfg.object.spec)
     mesh = cfg.object.mesh
     if mesh is not None:
@@ -86,6 +88,7 @@ def input_digests(cfg: Config, spec: Spec | None = None) -> dict:
         "mesh": file_digest(mesh) if mesh is not None else None,
         "spec": hashlib.sha256(json.dumps(spec.model_dump(mode="json"), sort_keys=True).encode()).hexdigest(),
         "hdri": files_digest(list(hdri_files(hdri).values()), hdri) if hdri is not None else None,
+        "bank": bank_key(spec, mesh) if cfg.deform.sources.uses_bank and spec.simulation else None,
     }
 
 
