@@ -59,12 +59,18 @@ class CameraConfig(_Model):
 
 
 class PoseConfig(_Model):
-    """How the object lies: tilted away from upright by ``tilt`` degrees about a random horizontal axis.
+    """How the object lies. ``tilt`` mode: tilted away from upright by ``tilt`` degrees about a random
+    horizontal axis, in the air. ``drop`` mode: the deformed part falls from a random orientation onto the
+    ground with Blender's rigid-body solver and is rendered where it comes to rest (:mod:`deformsim.blender.drop`).
 
     The paper renders the part upright (tilt 0); real parts also lie on their side or show their ends.
     """
 
+    mode: Literal["tilt", "drop"] = "tilt"
     tilt: Range = (0.0, 0.0)
+    drop_height: float = Field(0.25, ge=0, le=5, description="drop: start clearance over the ground, in part sizes")
+    drop_frames: int = Field(240, ge=10, le=2000, description="drop: most frames (24 fps) simulated before the pose is read")
+    drop_upright: float = Field(0.25, ge=0, le=1, description="drop: share of drops that start standing on an end")
 
     @field_validator("tilt")
     @classmethod
@@ -72,12 +78,55 @@ class PoseConfig(_Model):
         return check_range(v, 0, 180)
 
 
+class AreaLightsConfig(_Model):
+    """Area lights added to the HDRI per sample, as in inspection set-ups (:mod:`deformsim.blender.lights`).
+
+    Kinds: ``softbox`` (a large rectangle near the part, from above), ``ring`` (a disk light just behind one
+    of the sample's cameras, on its axis) and ``window`` (a large rectangle far away, from the side). Sizes and
+    distances are for the built-in can and scale with the part like the camera radius. Off by default.
+    """
+
+    count: tuple[int, int] = Field((0, 0), description="lights per sample, drawn uniformly in [min, max]; 0 = none")
+    kinds: list[Literal["softbox", "ring", "window"]] = ["softbox", "ring", "window"]
+    power: Range = Field(
+        (25.0, 150.0), description="watts the light would need 1 m from the built-in can (roughly 400 W lights a "
+        "white part as much as a uniform world of strength 1); the power given to Blender grows with the light's "
+        "distance squared and the part's size squared, so the light on the part does not depend on either"
+    )
+    temperature: Range = Field((4500.0, 7500.0), description="colour temperature (K): warm below 6500, cool above")
+
+    @field_validator("count")
+    @classmethod
+    def _count(cls, v: tuple[int, int]) -> tuple[int, int]:
+        if v[0] < 0 or v[0] > v[1] or v[1] > 8:
+            raise ValueError(f"area_lights.count {list(v)} must satisfy 0 <= min <= max <= 8")
+        return v
+
+    @field_validator("kinds")
+    @classmethod
+    def _kinds(cls, v: list[str]) -> list[str]:
+        if not v:
+            raise ValueError("area_lights.kinds is empty: name at least one of softbox, ring, window")
+        return v
+
+    @field_validator("power")
+    @classmethod
+    def _power(cls, v: Range) -> Range:
+        return check_range(v, 0, name="area_lights.power")
+
+    @field_validator("temperature")
+    @classmethod
+    def _temperature(cls, v: Range) -> Range:
+        return check_range(v, 1000, 20000, name="area_lights.temperature")
+
+
 class LightingConfig(_Model):
-    """HDRI world lighting: a random EXR at a random rotation."""
+    """HDRI world lighting: a random EXR at a random rotation; optional area lights on top."""
 
     hdri_dir: Path | None = Field(None, description="folder of .exr/.hdr files; None = Blender's studiolights")
     rotation: Range = (0.0, 360.0)
     strength: Range = (0.8, 1.4)
+    area_lights: AreaLightsConfig = AreaLightsConfig()
 
     @field_validator("strength")
     @classmethod
@@ -171,6 +220,20 @@ class RenderConfig(_Model):
     denoise_prefilter: Literal["none", "fast", "accurate"] = Field("accurate", description="denoising of the guides")
     denoise_quality: Literal["high", "balanced", "fast"] = "high"
     tile_size: int = Field(2048, ge=8, le=8192, description="Cycles tile size in pixels")
+    view_transform: Literal["Standard", "AgX", "Filmic", "Khronos PBR Neutral"] = Field(
+        "Standard", description="colour view transform: Standard clips highlights at 1.0 (exact flat colours); "
+        "AgX, Filmic and Khronos PBR Neutral roll bright highlights off like a camera"
+    )
+    look: Literal["None", "Very Low Contrast", "Low Contrast", "Medium Low Contrast", "Medium Contrast",
+                  "Medium High Contrast", "High Contrast", "Very High Contrast", "Punchy"] = Field(
+        "None", description="contrast look on top of the view transform (Punchy: AgX only)"
+    )
+
+    @model_validator(mode="after")
+    def _look(self) -> "RenderConfig":
+        if self.look == "Punchy" and self.view_transform != "AgX":
+            raise ValueError(f"render.look Punchy needs view_transform AgX (got {self.view_transform})")
+        return self
 
 
 class GenerateConfig(_Model):

@@ -45,6 +45,31 @@ class MaterialParams:
 
 
 @dataclass(frozen=True)
+class LightParams:
+    """One area light (``lighting.area_lights``), placed on a sphere around the part's centre and aimed at it.
+    Lengths are metres for the built-in can and scale with the part, like :attr:`CameraParams.radius`."""
+
+    kind: str  # "softbox" | "ring" | "window"
+    azimuth: float  # degrees about +Z from +X
+    elevation: float  # degrees above the horizontal through the part's centre
+    distance: float  # metres from the part's centre
+    size: float  # metres: the rectangle's width or the disk's diameter
+    size_y: float  # metres: the rectangle's height (= size for a disk)
+    spin: float  # degrees: rotation of the rectangle about its own axis
+    power: float  # watts given to Blender for the built-in can (times the part's scale squared otherwise)
+    temperature: float  # colour temperature in kelvin
+
+
+# Geometry of each kind of area light (built-in can, metres/degrees): size, aspect (height/width), distance,
+# elevation. A ring sits just behind one of the sample's cameras, on its axis, instead (see draw_lights).
+LIGHT_KINDS = {
+    "softbox": {"size": (0.25, 0.5), "aspect": (0.5, 1.0), "distance": (0.5, 0.9), "elevation": (20.0, 65.0)},
+    "ring": {"size": (0.12, 0.25), "aspect": (1.0, 1.0), "distance": (1.02, 1.2), "elevation": (-4.0, 4.0)},
+    "window": {"size": (0.8, 1.5), "aspect": (0.6, 1.5), "distance": (1.5, 3.0), "elevation": (0.0, 25.0)},
+}
+
+
+@dataclass(frozen=True)
 class SampleParams:
     index: int
     seed: int
@@ -65,6 +90,8 @@ class SampleParams:
     pose_axis: float = 0.0  # azimuth (degrees) of the horizontal axis the object is tilted about
     bank: str = ""  # simulated bank entry "SCENARIO/I" the sample uses ("" = none)
     bank_amount: float = 0.0
+    drop_rotation: tuple[float, ...] = ()  # pose.mode drop: start orientation (unit quaternion w, x, y, z); () = tilt
+    lights: tuple[LightParams, ...] = ()  # lighting.area_lights: the sample's area lights; () = HDRI only
 
     @property
     def deformed(self) -> bool:
@@ -82,6 +109,8 @@ class SampleParams:
         if d.get("material"):
             m = d["material"]
             d["material"] = MaterialParams(color=tuple(m["color"]), roughness=m["roughness"])
+        d["drop_rotation"] = tuple(d.get("drop_rotation", ()))
+        d["lights"] = tuple(LightParams(**lp) for lp in d.get("lights", ()))
         return cls(**d)
 
 
@@ -126,6 +155,56 @@ def draw_source(index: int, seed: int, cfg: Config, spec: Spec) -> tuple[str, st
     entry = f"{scenario.name}/{int(rng.integers(scenario.variants))}"
     amount = float(rng.uniform(*cfg.deform.bank_amount))
     return (source, entry, amount) if source != "lattice" else (source, "", 0.0)
+
+
+def draw_drop(index: int, seed: int, upright: float) -> tuple[float, float, float, float]:
+    """``pose.mode`` drop: the start orientation (unit quaternion w, x, y, z). With probability ``upright`` the part
+    starts standing on one of its ends (either, tilted up to 15 degrees, any turn about the vertical), else in a
+    uniformly random orientation. A stream of its own, so every other draw is the same as in tilt mode."""
+    rng = np.random.default_rng([seed, index, 2])
+    q = rng.normal(size=4)
+    stand, flip = rng.uniform() < upright, rng.uniform() < 0.5
+    yaw, tilt, axis = rng.uniform(0, 2 * np.pi), np.radians(rng.uniform(0, 15)), rng.uniform(0, 2 * np.pi)
+    if stand:
+        tilt = tilt + np.pi if flip else tilt
+        a, t = yaw / 2, tilt / 2
+        qz = np.array([np.cos(a), 0.0, 0.0, np.sin(a)])  # turn about the vertical, then tilt
+        qt = np.array([np.cos(t), np.sin(t) * np.cos(axis), np.sin(t) * np.sin(axis), 0.0])
+        w1, x1, y1, z1 = qt
+        w2, x2, y2, z2 = qz
+        q = np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                      w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+    q = q / np.linalg.norm(q) * (1.0 if q[0] >= 0 else -1.0)
+    return tuple(float(v) for v in q)
+
+
+def draw_lights(index: int, seed: int, cfg: Config, cameras: tuple[CameraParams, ...]) -> tuple[LightParams, ...]:
+    """``lighting.area_lights``: the sample's area lights, from a stream of their own (so a config without
+    lights draws exactly what it drew before they existed). A ring light goes on the axis of one of ``cameras``."""
+    a = cfg.lighting.area_lights
+    if a.count[1] == 0:
+        return ()
+    rng = np.random.default_rng([seed, index, 3])
+    lights = []
+    for _ in range(int(rng.integers(a.count[0], a.count[1] + 1))):
+        kind = a.kinds[int(rng.integers(len(a.kinds)))]
+        g = LIGHT_KINDS[kind]
+        size = float(rng.uniform(*g["size"]))
+        size_y = size * float(rng.uniform(*g["aspect"]))
+        spin = float(rng.uniform(0, 180)) if kind != "ring" else 0.0
+        dist = float(rng.uniform(*g["distance"]))
+        elevation = float(rng.uniform(*g["elevation"]))
+        azimuth = float(rng.uniform(0, 360))
+        if kind == "ring":  # behind camera k on its axis: distance and elevation relative to the camera's
+            cam = cameras[int(rng.integers(len(cameras)))]
+            azimuth = cam.azimuth + float(rng.uniform(-4.0, 4.0))
+            elevation += 90.0 - cam.polar
+            dist *= cam.radius
+        power = float(rng.uniform(*a.power)) * dist**2  # watts at 1 m -> watts at this distance
+        lights.append(LightParams(kind=kind, azimuth=azimuth % 360.0, elevation=elevation, distance=dist, size=size,
+                                  size_y=size_y, spin=spin, power=power,
+                                  temperature=float(rng.uniform(*a.temperature))))
+    return tuple(lights)
 
 
 def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[str]) -> SampleParams:
@@ -206,6 +285,8 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
 
     pose_tilt = float(rng.uniform(*cfg.pose.tilt))
     pose_axis = float(rng.uniform(0, 360))
+    if cfg.pose.mode == "drop":  # drawn all the same, so every later draw is where it is in tilt mode
+        pose_tilt = pose_axis = 0.0
 
     return SampleParams(
         index=index,
@@ -227,4 +308,6 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
         pose_axis=pose_axis,
         bank=bank,
         bank_amount=bank_amount,
+        drop_rotation=draw_drop(index, seed, cfg.pose.drop_upright) if cfg.pose.mode == "drop" else (),
+        lights=draw_lights(index, seed, cfg, cameras),
     )

@@ -19,7 +19,8 @@ from PIL import Image
 
 from deformsim.atomic import atomic_path
 from deformsim.blender import cameras as cams
-from deformsim.blender import dense, materials
+from deformsim.blender import dense, drop, materials
+from deformsim.blender.lights import set_lights
 from deformsim.blender.pose import set_pose
 from deformsim.blender.rig import Rig
 from deformsim.blender.world import World
@@ -45,6 +46,8 @@ class RenderContext:
     pivot: object  # tilts object and lattice together (see blender.pose)
     target: tuple[float, float, float]  # bounding-box centre the cameras aim at
     camera_scale: float = 1.0
+    ground: float = 0.0  # z the part stands on at rest (pose.mode drop: the ground it falls onto)
+    rest: drop.DropResult | None = None  # pose.mode drop: how the last sample came to rest
 
 
 def over_color(rgba: np.ndarray, color: tuple[int, int, int]) -> np.ndarray:
@@ -77,15 +80,28 @@ def _render_to_array(scene, target: Path) -> tuple[np.ndarray, float]:
     return pixels, seconds
 
 
-def apply_state(ctx: RenderContext, p: SampleParams) -> None:
-    """Put the scene in sample ``p``'s state (deformation, openings, surface, lighting)."""
+def apply_state(ctx: RenderContext, p: SampleParams) -> tuple[float, float, float]:
+    """Put the scene in sample ``p``'s state (deformation, pose, openings, surface, lighting); return the point
+    the cameras aim at (the rest bounding-box centre, or with ``pose.mode`` drop the resting part's)."""
     ctx.rig.set(p.keys, p.displacement, p.seal, p.tab, p.bank, p.bank_amount)
-    set_pose(ctx.pivot, p.pose_tilt, p.pose_axis)
+    target = ctx.target
+    if ctx.cfg.pose.mode == "drop":  # after the rig: the deformed shape decides how the part comes to rest
+        if len(p.drop_rotation) != 4:
+            raise ValueError(f"sample {p.index} has no drop_rotation (drawn with pose.mode tilt?)")
+        pose = ctx.cfg.pose
+        ctx.rest = drop.drop(ctx.scene, ctx.obj, ctx.pivot, ctx.target, ctx.ground, p.drop_rotation,
+                             pose.drop_height, pose.drop_frames)
+        target = ctx.rest.target
+    else:
+        ctx.pivot.location = ctx.target
+        set_pose(ctx.pivot, p.pose_tilt, p.pose_axis)
     if p.design is not None:
         materials.set_label(p.design)
     if p.material is not None:
         materials.apply_material(ctx.obj, ctx.spec.material, p.material)
     ctx.world.set(p.hdri, p.hdri_rotation, p.hdri_strength)
+    set_lights(ctx.scene, p.lights, target, ctx.camera_scale)
+    return target
 
 
 def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[list[float], list[dict] | None]:
@@ -93,14 +109,14 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[
     each image's dense manifest columns (the maps are written beside the images)."""
     if len(p.cameras) != len(ctx.cameras):
         raise ValueError(f"sample {p.index} has {len(p.cameras)} cameras, the scene {len(ctx.cameras)}")
-    apply_state(ctx, p)
+    target = apply_state(ctx, p)
     scene = ctx.scene
     seconds, rows = [], None
     if ctx.cfg.render.dense:
         sample_cols = {"max_disp_mm": dense.prepare(scene, ctx.obj, ctx.spec, p), **dense.family_flags(ctx.spec, p)}
         rows = []
     for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
-        cams.place(cam, cp, ctx.target, ctx.camera_scale)
+        cams.place(cam, cp, target, ctx.camera_scale)
         scene.camera = cam
         iid = image_id(p.index, c)
         rgba, t = _render_to_array(scene, layout.image("rgba", iid))

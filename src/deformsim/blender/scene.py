@@ -66,11 +66,21 @@ def configure_cycles(scene, render_cfg: RenderConfig, threads: int = 0) -> str:
     img.color_mode = "RGBA"
     img.color_depth = "8"
     img.compression = 15
-    # Standard view: linear (0, 1, 0) is written as sRGB (0, 255, 0), so rendered green is exact.
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
+    # Standard view (the default): linear (0, 1, 0) is written as sRGB (0, 255, 0), so rendered green is exact.
+    # The filmic transforms roll highlights off; the background variants stay exact (render.py sets uncovered
+    # pixels and composites over the alpha), only pixels the object covers change.
+    scene.view_settings.view_transform = render_cfg.view_transform
+    scene.view_settings.look = look_name(render_cfg.view_transform, render_cfg.look)
     threads_txt = f"{threads} threads" if threads else "auto threads"
     return gpu or f"CPU ({threads_txt})"
+
+
+def look_name(view_transform: str, look: str) -> str:
+    """Blender's name of contrast ``look`` under ``view_transform``: AgX's looks carry its prefix and call the
+    medium one "Base Contrast"."""
+    if look == "None" or view_transform != "AgX":
+        return look
+    return "AgX - " + ("Base Contrast" if look == "Medium Contrast" else look)
 
 
 def _quality(cy, r: RenderConfig, gpu: bool) -> None:

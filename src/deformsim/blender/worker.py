@@ -6,7 +6,8 @@ JSON lines on stdin, one reply line each on the real stdout (Blender's own print
   scene once (``bank``: a baked bank folder, its entries become shape keys)
   -> ``{"ready": true, "device": str, "camera_scale": float, "object_size": [dx, dy, dz], "pid": int}``
 - ``{"render": SampleParams.to_dict()}`` -> ``{"done": index, "render_seconds": [...], "dense": [{...}]|null}``
-  (``dense``: each image's dense-map manifest columns, with ``render.dense``) or
+  (``dense``: each image's dense-map manifest columns, with ``render.dense``; ``pose``: the resting pose's
+  manifest columns with ``pose.mode`` drop, else null) or
   ``{"error": index, "message": str, "traceback": str}`` (the worker lives on)
 - ``{"configure": RenderConfig dict}`` -> ``{"configured": device}``: new Cycles settings, same scene
 - ``{"quit": true}`` -> exit 0 (so does the end of stdin)
@@ -42,6 +43,7 @@ def setup(msg: dict):
     from deformsim.blender import materials
     from deformsim.blender import scene as scn
     from deformsim.blender.cameras import make_cameras
+    from deformsim.blender.lights import make_lights
     from deformsim.blender.pose import make_pivot
     from deformsim.blender.render import RenderContext
     from deformsim.blender.rig import build_rig, mesh_bounds
@@ -74,6 +76,7 @@ def setup(msg: dict):
         rig.load_bank(bank.names, bank.positions)
     pivot = make_pivot(scene, (lo + hi) / 2, [obj, rig.lattice])
     world = World(scene, cfg.lighting.hdri_dir)
+    make_lights(scene, cfg.lighting.area_lights.count[1])
     cameras = make_cameras(scene, len(cfg.camera.azimuth_quadrants), cfg.camera.lens_mm, camera_scale)
     device = scn.configure_cycles(scene, cfg.render, int(msg.get("threads") or cfg.render.threads))
     ctx = RenderContext(
@@ -87,6 +90,7 @@ def setup(msg: dict):
         target=tuple(float(v) for v in (lo + hi) / 2),
         camera_scale=camera_scale,
         pivot=pivot,
+        ground=float(lo[2]),
     )
     reply = {
         "ready": True,
@@ -107,7 +111,17 @@ def render(ctx, layout, params: dict) -> dict:
     p = SampleParams.from_dict(params)
     seconds, dense = render_sample(ctx, p, layout)
     bpy.data.orphans_purge(do_local_ids=True, do_linked_ids=True, do_recursive=True)
-    return {"done": p.index, "render_seconds": seconds, "dense": dense}
+    pose = rest_columns(ctx.rest) if ctx.cfg.pose.mode == "drop" else None
+    return {"done": p.index, "render_seconds": seconds, "dense": dense, "pose": pose}
+
+
+def rest_columns(rest) -> dict:
+    """Manifest columns of a dropped part's resting pose (:class:`deformsim.blender.drop.DropResult`)."""
+    from deformsim.blender.drop import up_angle
+
+    qw, qx, qy, qz = (round(float(v), 6) for v in rest.rotation)
+    return {"rest_qw": qw, "rest_qx": qx, "rest_qy": qy, "rest_qz": qz, "rest_tilt": round(up_angle(rest.rotation), 3),
+            "drop_frames": rest.frames, "drop_settled": rest.settled}
 
 
 def configure(ctx, render: dict) -> dict:

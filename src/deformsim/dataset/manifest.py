@@ -22,9 +22,10 @@ VOLATILE_COLUMNS = ("render_seconds",)
 
 
 def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camera_scale: float = 1.0,
-             dense: list[dict] | None = None) -> list[dict]:
+             dense: list[dict] | None = None, pose: dict | None = None) -> list[dict]:
     """The manifest rows of one sample, one per camera; ``dense``: each image's dense-map columns from the
-    worker (``render.dense``), which add the paths of the maps."""
+    worker (``render.dense``), which add the paths of the maps; ``pose``: the resting pose's columns from the
+    worker (``pose.mode`` drop: ``rest_qw..rest_qz``, ``rest_tilt``, ...)."""
     rows = []
     for c, cam in enumerate(p.cameras):
         iid = image_id(p.index, c)
@@ -45,6 +46,8 @@ def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camer
             "tab": p.tab,
             "pose_tilt": p.pose_tilt,
             "pose_axis": p.pose_axis,
+            **({f"drop_q{a}": v for a, v in zip("wxyz", p.drop_rotation)} if p.drop_rotation else {}),
+            **(pose or {}),
             "hdri": p.hdri,
             "hdri_rotation": p.hdri_rotation,
             "hdri_strength": p.hdri_strength,
@@ -54,6 +57,7 @@ def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camer
             "camera_scale": camera_scale,
             "design": json.dumps(p.design.__dict__ if p.design else None, sort_keys=True),
             "material": json.dumps(p.material.__dict__ if p.material else None, sort_keys=True),
+            "lights": json.dumps([lp.__dict__ for lp in p.lights], sort_keys=True),
             **{kind: layout.rel(layout.image(kind, iid)) for kind in RENDER_KINDS},
             "render_seconds": render_seconds[c],
         }

@@ -43,9 +43,9 @@ def worker_setup(cfg: Config, layout: Layout, bank: Path | None = None) -> dict:
 
 
 def finish_sample(layout: Layout, p: SampleParams, render_seconds: list[float], camera_scale: float,
-                  dense: list[dict] | None = None) -> None:
+                  dense: list[dict] | None = None, pose: dict | None = None) -> None:
     """Record a rendered sample: its record is what marks it done for a resumed run."""
-    write_record(layout, p, rows_for(p, layout, render_seconds, camera_scale, dense))
+    write_record(layout, p, rows_for(p, layout, render_seconds, camera_scale, dense, pose))
 
 
 def remove_partial_files(layout: Layout) -> None:

@@ -123,7 +123,8 @@ def run_ray(cfg: Config, layout: Layout, params: dict[int, SampleParams], progre
                     continue
                 for rel, data in reply.get("files", {}).items():
                     write_bytes(layout.root / rel, data)
-                finish_sample(layout, params[i], reply["render_seconds"], reply["camera_scale"], reply.get("dense"))
+                finish_sample(layout, params[i], reply["render_seconds"], reply["camera_scale"], reply.get("dense"),
+                              reply.get("pose"))
                 device = reply.get("device", device)
                 bar.update(views)
         ray.get([a.close.remote() for a in idle])

@@ -67,6 +67,8 @@ def data_settings(cfg: Config) -> dict:
     out = {k: d[k] for k in _DATA_SECTIONS}
     for section, keys in _RUN_ONLY.items():
         out[section] = {k: v for k, v in out[section].items() if k not in keys}
+    if out["pose"]["mode"] == "tilt":  # the drop settings (added later) do not change tilt-mode data: keep its identity
+        out["pose"] = {k: v for k, v in out["pose"].items() if k == "tilt"}
     return out
 
 
