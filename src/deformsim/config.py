@@ -200,6 +200,10 @@ class RenderConfig(_Model):
     dense: bool = Field(False, description="also write mask, depth, normal, deformation and region maps per image")
     region_threshold_mm: float = Field(1.0, gt=0, description="deformation (mm) from which a pixel is in the region")
     creases: bool = Field(False, description="scuffed bare metal on sharp ridges and darkened folds (Cycles pointiness)")
+    shadow: bool = Field(
+        False, description="also write images/shadow/ID.png: the shadow and contact occlusion the part casts on a "
+        "ground plane under it (a Cycles shadow catcher lit by the world), for compositing; rgba stays the part alone"
+    )
     # Cycles quality/speed (bench/render_quality.py measures them); defaults are Blender's, max_bounces 6.
     adaptive: bool = Field(False, description="adaptive sampling: stop pixels whose noise is below the threshold")
     adaptive_threshold: float = Field(0.01, gt=0, le=1, description="adaptive sampling noise threshold")
@@ -302,6 +306,10 @@ class CompositeConfig(_Model):
     )
     fill_offset: float = Field(0.1, ge=0, le=0.5, description="random shift of the object from the frame centre")
     effects: CameraEffects | None = Field(None, description="camera effects per composite; None = none")
+    shadow_strength: Range = Field(
+        (1.0, 1.0), description="alpha matte on a dataset rendered with render.shadow: the part's shadow darkens "
+        "the background by strength * shadow, strength drawn per image from this range (0 = no shadow)"
+    )
 
     @field_validator("object_fill")
     @classmethod
@@ -315,6 +323,11 @@ class CompositeConfig(_Model):
     def _scale(cls, v: Range) -> Range:
         check_range(v, 1.0)
         return v
+
+    @field_validator("shadow_strength")
+    @classmethod
+    def _shadow(cls, v: Range) -> Range:
+        return check_range(v, 0, 1, "shadow_strength")
 
 
 class TrainConfig(_Model):

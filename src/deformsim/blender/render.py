@@ -3,6 +3,8 @@
 ``rgba`` is Cycles' exact-alpha render (transparent film). ``black`` and ``green`` are composited over it
 in 8-bit straight alpha (rgb*a + C*(1-a)), or, with ``render.render_backgrounds``, rendered by Cycles with
 the world showing that colour to camera rays only (pixels the object does not cover are set exactly).
+With ``render.shadow`` a second render per camera gives ``shadow``, the part's shadow on the ground
+(:mod:`deformsim.blender.shadow`); the images above do not change.
 """
 
 from __future__ import annotations
@@ -19,13 +21,13 @@ from PIL import Image
 
 from deformsim.atomic import atomic_path
 from deformsim.blender import cameras as cams
-from deformsim.blender import dense, drop, materials
+from deformsim.blender import dense, drop, materials, shadow
 from deformsim.blender.lights import set_lights
 from deformsim.blender.pose import set_pose
 from deformsim.blender.rig import Rig
 from deformsim.blender.world import World
 from deformsim.config import Config
-from deformsim.dataset.layout import Layout, image_id
+from deformsim.dataset.layout import SHADOW_KIND, Layout, image_id
 from deformsim.sampling import SampleParams
 from deformsim.spec.model import Spec
 
@@ -48,6 +50,7 @@ class RenderContext:
     camera_scale: float = 1.0
     ground: float = 0.0  # z the part stands on at rest (pose.mode drop: the ground it falls onto)
     rest: drop.DropResult | None = None  # pose.mode drop: how the last sample came to rest
+    catcher: object = None  # render.shadow: the shadow-catcher ground plane (blender.shadow), built on first use
 
 
 def over_color(rgba: np.ndarray, color: tuple[int, int, int]) -> np.ndarray:
@@ -111,10 +114,14 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[
         raise ValueError(f"sample {p.index} has {len(p.cameras)} cameras, the scene {len(ctx.cameras)}")
     target = apply_state(ctx, p)
     scene = ctx.scene
-    seconds, rows = [], None
+    seconds, rows, alphas = [], None, []
     if ctx.cfg.render.dense:
         sample_cols = {"max_disp_mm": dense.prepare(scene, ctx.obj, ctx.spec, p), **dense.family_flags(ctx.spec, p)}
         rows = []
+    if ctx.cfg.render.shadow:
+        if ctx.catcher is None:
+            ctx.catcher = shadow.make_catcher(scene, ctx.camera_scale)
+        shadow.place(ctx.catcher, ctx.obj, target)
     for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
         cams.place(cam, cp, target, ctx.camera_scale)
         scene.camera = cam
@@ -124,6 +131,8 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[
         if rows is not None:
             threshold = ctx.cfg.render.region_threshold_mm
             rows.append({**sample_cols, **dense.write_maps(scene, cam, rgba[..., 3], layout, iid, threshold)})
+        if ctx.cfg.render.shadow:
+            alphas.append(rgba[..., 3])
         for kind, color in BACKGROUNDS.items():
             if ctx.cfg.render.render_backgrounds:
                 img, dt = _render_background(ctx, layout.image(kind, iid), color)
@@ -133,6 +142,15 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[
                 img = over_color(rgba, color)
             _save(layout.image(kind, iid), img)
         seconds.append(t)
+    if ctx.cfg.render.shadow:  # after every other image of the sample (see blender.shadow: the session is reset)
+        for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
+            cams.place(cam, cp, target, ctx.camera_scale)
+            scene.camera = cam
+            path = layout.image(SHADOW_KIND, image_id(p.index, c))
+            alpha, dt = shadow.render_alpha(scene, ctx.catcher, ctx.obj, _render_to_array, path,
+                                            last=c == len(ctx.cameras) - 1)
+            _save(path, shadow.shadow_map(alpha, alphas[c]))
+            seconds[c] += dt
     return seconds, rows
 
 

@@ -7,7 +7,7 @@ JSON lines on stdin, one reply line each on the real stdout (Blender's own print
   -> ``{"ready": true, "device": str, "camera_scale": float, "object_size": [dx, dy, dz], "pid": int}``
 - ``{"render": SampleParams.to_dict()}`` -> ``{"done": index, "render_seconds": [...], "dense": [{...}]|null}``
   (``dense``: each image's dense-map manifest columns, with ``render.dense``; ``pose``: the resting pose's
-  manifest columns with ``pose.mode`` drop, else null) or
+  manifest columns with ``pose.mode`` drop, else null; ``"shadow": true`` with ``render.shadow``) or
   ``{"error": index, "message": str, "traceback": str}`` (the worker lives on)
 - ``{"configure": RenderConfig dict}`` -> ``{"configured": device}``: new Cycles settings, same scene
 - ``{"quit": true}`` -> exit 0 (so does the end of stdin)
@@ -112,7 +112,10 @@ def render(ctx, layout, params: dict) -> dict:
     seconds, dense = render_sample(ctx, p, layout)
     bpy.data.orphans_purge(do_local_ids=True, do_linked_ids=True, do_recursive=True)
     pose = rest_columns(ctx.rest) if ctx.cfg.pose.mode == "drop" else None
-    return {"done": p.index, "render_seconds": seconds, "dense": dense, "pose": pose}
+    reply = {"done": p.index, "render_seconds": seconds, "dense": dense, "pose": pose}
+    if ctx.cfg.render.shadow:  # only then, so that the reply (and the manifest) stays as it was without shadows
+        reply["shadow"] = True
+    return reply
 
 
 def rest_columns(rest) -> dict:

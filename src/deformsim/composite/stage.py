@@ -7,7 +7,10 @@ draws from its own generator ``default_rng([seed, stable_int(id)])``, so the res
 number of workers. The variant is built in a staging folder and swapped in only when complete. Optional
 steps, each recorded per image: a class-balanced choice of background photo, framing around the object
 (:mod:`deformsim.composite.framing`), a left-right flip of the part (``flip_part``, from a generator of its own)
-and camera effects (:mod:`deformsim.composite.effects`).
+and camera effects (:mod:`deformsim.composite.effects`). With the alpha matte, a dataset rendered with
+``render.shadow`` also gets the part's shadow: the background behind the part is multiplied by
+``1 - strength * shadow`` (the shadow map moved like the part, bilinear; ``strength`` drawn per image from
+``shadow_strength`` with a generator of its own) before the part is laid over it. The chroma keys ignore it.
 """
 
 from __future__ import annotations
@@ -40,7 +43,7 @@ from deformsim.composite.framing import frame_matrix, warp
 from deformsim.composite.maps import MAP_KINDS, move_maps, read_maps, write_maps
 from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inrange_matte
 from deformsim.config import CompositeConfig
-from deformsim.dataset.layout import RENDER_KINDS, Layout
+from deformsim.dataset.layout import RENDER_KINDS, SHADOW_KIND, Layout
 from deformsim.dataset.manifest import read_manifest
 from deformsim.dataset.variants import VARIANT_MANIFEST
 from deformsim.errors import UserError
@@ -58,6 +61,7 @@ def stable_int(iid: str) -> int:
 
 SETTINGS_FILE = "composite.json"
 FLIP_STREAM = 0xF11F  # the part flip's own generator, so turning it on moves no other draw
+SHADOW_STREAM = 0x5AAD  # the shadow strength's own generator, likewise
 
 
 def variant_settings(name: str, seed: int, cfg: CompositeConfig) -> dict:
@@ -82,7 +86,7 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
         raise UserError(f"invalid variant name {name!r}: letters, digits, '_-.' and not {'/'.join(RENDER_KINDS)}")
     photos = [str(p) for p in scan_backgrounds(cfg.backgrounds)] if cfg.backgrounds else []
     source = "rgba" if cfg.matte == "alpha" else "green"
-    jobs = _jobs(layout, manifest, source)
+    jobs = _jobs(layout, manifest, source, shadows=cfg.matte == "alpha")
     if photos and cfg.balance_backgrounds:
         first = balanced_photos(manifest["id"].tolist(), manifest["y"].tolist(), len(photos), seed)
         jobs = [(*job, first[job[0]]) for job in jobs]
@@ -122,8 +126,9 @@ def balanced_photos(ids: list[str], labels: list[int], n_photos: int, seed: int)
     return out
 
 
-def _jobs(layout: Layout, manifest: pd.DataFrame, source: str) -> list[tuple]:
-    """``(id, source image, exact-alpha render or None, dense map paths or None)`` per image, all checked to exist."""
+def _jobs(layout: Layout, manifest: pd.DataFrame, source: str, shadows: bool = False) -> list[tuple]:
+    """``(id, source image, exact-alpha render or None, dense map paths or None, shadow map or None)`` per image,
+    all checked to exist; ``shadows``: use the shadow maps where the dataset has them."""
     if manifest.empty:
         raise UserError(f"dataset {layout.root} has no images")
     dense = "mask" in manifest.columns
@@ -137,8 +142,11 @@ def _jobs(layout: Layout, manifest: pd.DataFrame, source: str) -> list[tuple]:
         for path in (maps or {}).values():
             if not path.is_file():
                 raise UserError(f"dense map missing: {path} (is the dataset at {layout.root} complete?)")
+        shadow = layout.root / getattr(row, SHADOW_KIND) if shadows and SHADOW_KIND in manifest.columns else None
+        if shadow is not None and not shadow.is_file():
+            raise UserError(f"shadow map missing: {shadow} (is the dataset at {layout.root} complete?)")
         jobs.append((row.id, str(src), str(exact) if exact is not None and exact.is_file() else None,
-                     {k: str(p) for k, p in maps.items()} if maps else None))
+                     {k: str(p) for k, p in maps.items()} if maps else None, str(shadow) if shadow else None))
     return jobs
 
 
@@ -188,9 +196,9 @@ def _read(path: str, flags: int) -> np.ndarray:
 
 
 def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | None = None,
-                  photo: int | None = None) -> dict:
+                  shadow: str | None = None, photo: int | None = None) -> dict:
     """Matte, background and composite one image (worker side); writes it (and its moved maps) and returns its
-    manifest row."""
+    manifest row. ``shadow``: the part's shadow map (alpha matte only)."""
     cfg, rng = _STATE["cfg"], np.random.default_rng([_STATE["seed"], stable_int(iid)])
     if cfg.matte == "alpha":
         alpha, fg = alpha_matte(_read(src, cv2.IMREAD_UNCHANGED))
@@ -201,19 +209,27 @@ def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | 
         iou = binary_iou(alpha, _read(exact, cv2.IMREAD_UNCHANGED)[..., 3] / 255.0) if exact else float("nan")
     h, w = alpha.shape
     dense = read_maps(maps, (h, w)) if maps else None
+    shade = read_shadow(shadow, (h, w)) if shadow else None
     bg, info = _background(rng, cfg, h, w, photo)
     m = None
     if cfg.object_fill is not None:
         m, frame = frame_matrix(alpha, cfg.object_fill, cfg.fill_offset, rng)
         fg, alpha = warp(fg, m), np.clip(warp(alpha, m), 0, 1)
+        shade = np.clip(warp(shade, m), 0, 1) if shade is not None else None
         info.update(frame)
     flip = part_flip(_STATE["seed"], iid, cfg.flip_part)
     if flip:
         fg, alpha = fg[:, ::-1], alpha[:, ::-1]
+        shade = shade[:, ::-1] if shade is not None else None
     info["part_flip"] = flip
     if dense:
         info.update(write_maps(move_maps(dense, m, flip), _STATE["maps_out"], _STATE["maps_prefix"], iid))
-    out = fg + (1.0 - alpha)[..., None] * bg.astype(np.float32)
+    bg = bg.astype(np.float32)
+    if shade is not None:
+        strength = shadow_strength(_STATE["seed"], iid, cfg.shadow_strength)
+        bg = bg * (1.0 - strength * shade)[..., None]
+        info["shadow_strength"] = strength
+    out = fg + (1.0 - alpha)[..., None] * bg
     out = np.clip(np.rint(out), 0, 255).astype(np.uint8)
     if cfg.effects is not None:
         out, fx = apply_effects(out, cfg.effects, rng)
@@ -226,6 +242,21 @@ def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | 
 def part_flip(seed: int, iid: str, p: float) -> bool:
     """Whether image ``iid`` shows its part mirrored: probability ``p``, from the flip's own generator."""
     return bool(p > 0 and np.random.default_rng([seed, stable_int(iid), FLIP_STREAM]).random() < p)
+
+
+def shadow_strength(seed: int, iid: str, r: tuple[float, float]) -> float:
+    """How strongly image ``iid``'s shadow darkens the background: uniform in ``r``, from its own generator."""
+    return float(r[0]) if r[0] == r[1] else float(np.random.default_rng([seed, stable_int(iid), SHADOW_STREAM]).uniform(*r))
+
+
+def read_shadow(path: str, shape: tuple[int, int]) -> np.ndarray:
+    """A shadow map (8-bit opacity, :mod:`deformsim.blender.shadow`) as float32 in 0..1, checked to be ``shape``."""
+    img = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    if img is None or img.ndim != 2:
+        raise UserError(f"cannot read shadow map {path} (a single-channel PNG is expected)")
+    if img.shape != shape:
+        raise UserError(f"shadow map {path} is {img.shape[1]}x{img.shape[0]}, its render {shape[1]}x{shape[0]}")
+    return img.astype(np.float32) / 255.0
 
 
 def _background(rng: np.random.Generator, cfg: CompositeConfig, h: int, w: int,

@@ -6,6 +6,7 @@
       samples/000012.json             one record per finished sample (its manifest rows): the resume state
       images/{rgba,black,green}/ID.png  exact-alpha render and its black / green camera-background variants
       images/{mask,depth,normal,deform,region}/ID.png  dense ground truth (render.dense; see dataset.dense)
+      images/shadow/ID.png            8-bit opacity of the part's shadow on the ground (render.shadow)
       manifest.parquet, manifest.csv  one row per image, consolidated from the sample records
       preview.png                     contact sheet
       variants/NAME/                  composited variants: images/ID.png + manifest.parquet
@@ -18,6 +19,7 @@ from pathlib import Path
 
 RENDER_KINDS = ("rgba", "black", "green")
 DENSE_KINDS = ("mask", "depth", "normal", "deform", "region")
+SHADOW_KIND = "shadow"  # render.shadow: the shadow the part casts on the ground (blender.shadow)
 
 
 def image_id(sample: int, camera: int) -> str:

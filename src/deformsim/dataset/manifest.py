@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 
 from deformsim.atomic import atomic_path, write_json
-from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, Layout, image_id
+from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, SHADOW_KIND, Layout, image_id
 from deformsim.errors import UserError
 from deformsim.sampling import SampleParams
 
@@ -22,10 +22,11 @@ VOLATILE_COLUMNS = ("render_seconds",)
 
 
 def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camera_scale: float = 1.0,
-             dense: list[dict] | None = None, pose: dict | None = None) -> list[dict]:
+             dense: list[dict] | None = None, pose: dict | None = None, shadow: bool = False) -> list[dict]:
     """The manifest rows of one sample, one per camera; ``dense``: each image's dense-map columns from the
     worker (``render.dense``), which add the paths of the maps; ``pose``: the resting pose's columns from the
-    worker (``pose.mode`` drop: ``rest_qw..rest_qz``, ``rest_tilt``, ...)."""
+    worker (``pose.mode`` drop: ``rest_qw..rest_qz``, ``rest_tilt``, ...); ``shadow``: the images have shadow
+    maps (``render.shadow``), a ``shadow`` path column."""
     rows = []
     for c, cam in enumerate(p.cameras):
         iid = image_id(p.index, c)
@@ -63,6 +64,8 @@ def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camer
         }
         if dense is not None:
             row.update({kind: layout.rel(layout.image(kind, iid)) for kind in DENSE_KINDS}, **dense[c])
+        if shadow:
+            row[SHADOW_KIND] = layout.rel(layout.image(SHADOW_KIND, iid))
         rows.append(row)
     return rows
 
@@ -79,7 +82,7 @@ def read_record(layout: Layout, index: int) -> dict | None:
     except (OSError, ValueError):
         return None
     for row in rec.get("rows", []):
-        if not all((layout.root / row[k]).is_file() for k in RENDER_KINDS + DENSE_KINDS if k in row):
+        if not all((layout.root / row[k]).is_file() for k in (*RENDER_KINDS, *DENSE_KINDS, SHADOW_KIND) if k in row):
             return None
     return rec
 
