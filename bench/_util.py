@@ -16,3 +16,38 @@ def rss_mb(pid: int) -> float:
         if line.startswith("VmRSS:"):
             return int(line.split()[1]) / 1024
     raise RuntimeError(f"no VmRSS for {pid}")
+
+
+def interleaved_seconds(cfgs: dict, params: dict, threads: int) -> tuple[dict, int]:
+    """Seconds per image of one worker per config in ``cfgs``, rendering ``params[key]`` (lists of equal length)
+    in turn (sample j of every config, then j + 1), so machine load falls on all alike. Each first sample warms
+    its worker up and is not counted. Returns (seconds per image per key, images timed per key)."""
+    import tempfile
+    import time
+
+    from deformsim.dataset.layout import Layout
+    from deformsim.generate.backend import worker_setup
+    from deformsim.generate.worker_client import WorkerProcess
+
+    wall = {k: 0.0 for k in cfgs}
+    images = {k: 0 for k in cfgs}
+    with tempfile.TemporaryDirectory() as tmp:
+        workers = {k: WorkerProcess(Path(tmp) / f"{k}.log", threads=threads) for k in cfgs}
+        try:
+            for k, w in workers.items():
+                w.start(worker_setup(cfgs[k], Layout(Path(tmp) / str(k))))
+            for j in range(len(next(iter(params.values())))):
+                for k, w in workers.items():
+                    p = params[k][j]
+                    t0 = time.perf_counter()
+                    reply = w.render(p.to_dict())
+                    if "error" in reply:
+                        raise SystemExit(f"{k}: sample {p.index} failed: {reply['message']}")
+                    if j:
+                        wall[k] += time.perf_counter() - t0
+                        images[k] += len(p.cameras)
+        finally:
+            for w in workers.values():
+                w.close()
+    n = next(iter(images.values()))
+    return {k: wall[k] / images[k] for k in cfgs}, n

@@ -17,14 +17,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from _util import ROOT  # noqa: F401  (puts src on the path)
+from _util import interleaved_seconds
 
 from deformsim.bank.stage import bake
 from deformsim.bank.store import load_bank
 from deformsim.config import load_config
-from deformsim.dataset.layout import Layout
-from deformsim.generate.backend import worker_setup
-from deformsim.generate.worker_client import WorkerProcess
 from deformsim.hdri import list_hdris
 from deformsim.sampling import sample_params
 from deformsim.spec.model import load_spec
@@ -58,26 +55,8 @@ def main() -> None:
                 "bank": load_config("quick", {**base, "deform.sources.lattice": 0, "deform.sources.bank": 1})}
         hdris = list_hdris(None)
         params = {k: [sample_params(i, 0, c, spec, hdris) for i in range(a.states + 1)] for k, c in cfgs.items()}
-        secs = {k: 0.0 for k in cfgs}
-        images = 0
-        workers = {k: WorkerProcess(Path(tmp) / f"{k}.log", threads=a.threads) for k in cfgs}
-        try:
-            for k, w in workers.items():
-                w.start(worker_setup(cfgs[k], Layout(Path(tmp) / k)))
-            for j in range(a.states + 1):
-                for k, w in workers.items():
-                    p = params[k][j]
-                    t0 = time.perf_counter()
-                    reply = w.render(p.to_dict())
-                    if "error" in reply:
-                        raise SystemExit(f"{k} sample {p.index} failed: {reply['message']}")
-                    if j:
-                        secs[k] += time.perf_counter() - t0
-                images += len(params["bank"][j].cameras) if j else 0
-        finally:
-            for w in workers.values():
-                w.close()
-    lat, bnk = secs["lattice"] / images, secs["bank"] / images
+        secs, images = interleaved_seconds(cfgs, params, a.threads)
+    lat, bnk = secs["lattice"], secs["bank"]
     print(f"generate, {images} images each (quick preset): lattice {lat:.3f} s/image, bank {bnk:.3f} s/image, "
           f"ratio {bnk / lat:.3f}x (target <= 1.3x)")
 

@@ -11,18 +11,13 @@ session after it (blender.shadow). Dense maps are off in both (``--dense`` turns
 from __future__ import annotations
 
 import argparse
-import sys
-import tempfile
-import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
+from _util import interleaved_seconds
 
-from deformsim.config import load_config  # noqa: E402
-from deformsim.generate.worker_client import WorkerProcess  # noqa: E402
-from deformsim.hdri import list_hdris  # noqa: E402
-from deformsim.sampling import sample_params  # noqa: E402
-from deformsim.spec.model import load_spec  # noqa: E402
+from deformsim.config import load_config
+from deformsim.hdri import list_hdris
+from deformsim.sampling import sample_params
+from deformsim.spec.model import load_spec
 
 
 def main() -> None:
@@ -37,26 +32,8 @@ def main() -> None:
     settings = {"render.resolution": a.resolution, "render.samples": a.samples, "render.dense": a.dense}
     cfgs = {on: load_config("quick", {**settings, "render.shadow": on}) for on in (False, True)}
     params = [sample_params(i, 0, cfgs[True], spec, hdris) for i in range(a.states + 1)]
-    wall = {False: 0.0, True: 0.0}
-    images = 0
-    with tempfile.TemporaryDirectory() as tmp:
-        workers = {on: WorkerProcess(Path(tmp) / f"shadow-{on}.log", threads=a.threads) for on in (False, True)}
-        try:
-            for on, w in workers.items():
-                w.start({"config": cfgs[on].model_dump(mode="json"), "spec_path": None, "out": f"{tmp}/{on}"})
-            for k, p in enumerate(params):
-                for on, w in workers.items():
-                    t0 = time.perf_counter()
-                    reply = w.render(p.to_dict())
-                    if "error" in reply:
-                        raise SystemExit(f"sample {p.index} failed: {reply['message']}")
-                    if k:  # sample 0 warms both workers up
-                        wall[on] += time.perf_counter() - t0
-                images += len(p.cameras) if k else 0
-        finally:
-            for w in workers.values():
-                w.close()
-    off, on = wall[False] / images, wall[True] / images
+    secs, images = interleaved_seconds(cfgs, {on: params for on in cfgs}, a.threads)
+    off, on = secs[False], secs[True]
     print(f"{images} images per setting, {a.resolution} px, {a.samples} spp, {a.threads} threads, dense {a.dense}")
     print(f"shadow off: {off:.3f} s/image")
     print(f"shadow on:  {on:.3f} s/image")
