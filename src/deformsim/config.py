@@ -178,10 +178,7 @@ class DeformConfig(_Model):
     @field_validator("bank_amount")
     @classmethod
     def _amount(cls, v: Range) -> Range:
-        check_range(v, 0, name="bank_amount")
-        if v[1] > 1.5:
-            raise ValueError(f"bank_amount {list(v)} goes above 1.5 (extrapolates the simulation)")
-        return v
+        return check_range(v, 0, 1.5, name="bank_amount")  # above 1 extrapolates the simulation
 
 
 class RenderConfig(_Model):

@@ -147,10 +147,7 @@ class Material(StrictModel):
     @field_validator("roughness")
     @classmethod
     def _rough(cls, v: Range) -> Range:
-        check_range(v, 0, name="roughness")
-        if v[1] > 1:
-            raise ValueError(f"roughness range {list(v)} goes above 1")
-        return v
+        return check_range(v, 0, 1, name="roughness")
 
 
 class Lattice(StrictModel):

@@ -49,18 +49,12 @@ class Scenario(StrictModel):
     @field_validator("tilt")
     @classmethod
     def _tilt(cls, v: Range) -> Range:
-        check_range(v, 0, name="tilt")
-        if v[1] > 45:
-            raise ValueError(f"tilt {list(v)} must stay within 45 degrees")
-        return v
+        return check_range(v, 0, 45, name="tilt")
 
     @field_validator("size", "height_band")
     @classmethod
     def _fraction(cls, v: Range, info) -> Range:
-        check_range(v, 0, name=info.field_name)
-        if v[1] > 1:
-            raise ValueError(f"{info.field_name} {list(v)} must lie inside [0, 1]")
-        return v
+        return check_range(v, 0, 1, name=info.field_name)
 
     @field_validator("directions")
     @classmethod
