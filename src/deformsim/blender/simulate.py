@@ -70,6 +70,7 @@ class Rest:
         self.offset = np.array([-self.centre[0], -self.centre[1], -self.lo[2]]) * self.scale  # standing on z = 0
         self.render.data.transform(Matrix.Translation(Vector(self.offset)) @ Matrix.Scale(self.scale, 4))
         self.proxy = make_proxy(self.render, SIM_SIZE / sim.resolution)
+        self.shell = _co(self.proxy.data)  # the shell at rest (its object transform is the identity)
         self.size = (self.hi - self.lo) * self.scale  # extent at simulation scale (m)
 
     def to_part(self, co: np.ndarray) -> np.ndarray:
@@ -158,7 +159,7 @@ def _press(rest: Rest, direction: Vector, travel: float, frames: int, tilt: floa
     and moves ``travel`` m back towards it; plates face the part, tilted ``tilt`` degrees."""
     direction = direction.normalized()
     centre = Vector((0.0, 0.0, rest.size[2] / 2)) if at is None else at
-    verts = _evaluated_world(rest.proxy)
+    verts = rest.shell
     reach = max(float(np.max((verts - np.array(centre)) @ np.array(direction))), 0.0)  # part's extent that way
     obj = _collider(kind, size, name)
     rot = Vector((0, 0, -1)).rotation_difference(-direction)  # local -Z (the leading face) points at the part
@@ -172,15 +173,10 @@ def _press(rest: Rest, direction: Vector, travel: float, frames: int, tilt: floa
     _move(obj, start, end, frames, rot)
 
 
-def _evaluated_world(obj) -> np.ndarray:
-    m = np.array(obj.matrix_world)
-    return _co(obj.data) @ m[:3, :3].T + m[:3, 3]
-
-
 def _ground(rest: Rest, direction: Vector = Vector((0, 0, -1))) -> None:
     """A fixed plate just clear of the part on the side ``direction`` points to (the floor, or a wall)."""
     direction = direction.normalized()
-    reach = float(np.max(_evaluated_world(rest.proxy) @ np.array(direction)))
+    reach = float(np.max(rest.shell @ np.array(direction)))
     obj = _collider("plate", 0.0, "Ground")
     obj.rotation_mode = "QUATERNION"
     obj.rotation_quaternion = Vector((0, 0, -1)).rotation_difference(-direction)
@@ -189,7 +185,7 @@ def _ground(rest: Rest, direction: Vector = Vector((0, 0, -1))) -> None:
 
 def _extent(rest: Rest, direction: Vector) -> float:
     """The part's extent along ``direction`` (m, simulation scale)."""
-    return float(np.ptp(_evaluated_world(rest.proxy) @ np.array(direction.normalized())))
+    return float(np.ptp(rest.shell @ np.array(direction.normalized())))
 
 
 def setup_scenario(rest: Rest, scenario: Scenario, v: Variant, frames: int) -> None:
@@ -225,7 +221,7 @@ def simulate(part, sim: Simulation, scenario: Scenario, v: Variant) -> tuple[np.
     scene.frame_start, scene.frame_end = 1, frames + SETTLE + 1
     scene.frame_set(1)
     start = _co(rest.render.data)
-    binding = bind(_co(rest.proxy.data), _triangles(rest.proxy.data), start)
+    binding = bind(rest.shell, _triangles(rest.proxy.data), start)
     t0 = time.perf_counter()
     for f in range(2, frames + SETTLE + 1):
         scene.frame_set(f)
@@ -239,7 +235,7 @@ def simulate(part, sim: Simulation, scenario: Scenario, v: Variant) -> tuple[np.
         raise SimulationError(f"{where}: the simulation exploded (non-finite vertices)")
     size = float(np.ptp(start, axis=0).max())
     outside = float(np.max(np.maximum(start.min(0) - moved, moved - start.max(0)))) / size
-    stretch = _stretch(rest.proxy, after)
+    stretch = _stretch(rest, after)
     if outside > EXPLODED or stretch > STRETCHED:
         raise SimulationError(f"{where}: the simulation exploded (a vertex {outside:.2f} part sizes outside the "
                               f"part's box, an edge stretched {stretch:.1f}x)")
@@ -248,7 +244,7 @@ def simulate(part, sim: Simulation, scenario: Scenario, v: Variant) -> tuple[np.
     if step > UNSETTLED:
         raise SimulationError(f"{where}: the simulation did not converge (still moving {step:.3f}x the part size "
                               "per frame after the colliders stopped)")
-    area, crossing = _shell_checks(rest.proxy, after)
+    area, crossing = _shell_checks(rest, after)
     stats = {"seconds": round(seconds, 3), "max_disp_mm": round(float(disp.max()) * 1000, 3),
              "height_ratio": round(float(np.ptp(moved[:, 2]) / np.ptp(start[:, 2])), 4), "stretch": round(stretch, 3),
              "area_ratio": round(area, 4), "intersecting_faces": round(crossing, 5)}
@@ -294,21 +290,19 @@ def _normals(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
 
 
-def _stretch(proxy, moved: np.ndarray) -> float:
-    """The largest ratio of an edge's length in ``moved`` to its rest length (at least half the median edge)."""
-    ev = np.empty(len(proxy.data.edges) * 2, np.int32)
-    proxy.data.edges.foreach_get("vertices", ev)
+def _stretch(rest: Rest, moved: np.ndarray) -> float:
+    """The largest ratio of a shell edge's length in ``moved`` to its rest length (at least half the median edge)."""
+    ev = np.empty(len(rest.proxy.data.edges) * 2, np.int32)
+    rest.proxy.data.edges.foreach_get("vertices", ev)
     a, b = ev[0::2], ev[1::2]
-    rest = _co(proxy.data)
-    before = np.linalg.norm(rest[a] - rest[b], axis=1)
+    before = np.linalg.norm(rest.shell[a] - rest.shell[b], axis=1)
     floor = 0.5 * float(np.median(before))  # the remesher leaves a few tiny edges: measure them against a typical one
     return float(np.max(np.linalg.norm(moved[a] - moved[b], axis=1) / np.maximum(before, floor)))
 
 
-def _shell_checks(proxy, moved: np.ndarray) -> tuple[float, float]:
+def _shell_checks(rest: Rest, moved: np.ndarray) -> tuple[float, float]:
     """The shell's area after / before, and the fraction of its faces that cross a face they share no vertex with."""
-    polys = [tuple(p.vertices) for p in proxy.data.polygons]
-    rest = _co(proxy.data)
+    polys = [tuple(p.vertices) for p in rest.proxy.data.polygons]
 
     def area(co: np.ndarray) -> float:
         return sum(float(np.linalg.norm(np.cross(co[p[i]] - co[p[0]], co[p[i + 1]] - co[p[0]]))) / 2
@@ -316,7 +310,7 @@ def _shell_checks(proxy, moved: np.ndarray) -> tuple[float, float]:
 
     tree = BVHTree.FromPolygons([tuple(v) for v in moved], polys)
     crossing = {i for pair in tree.overlap(tree) if not set(polys[pair[0]]) & set(polys[pair[1]]) for i in pair}
-    return area(moved) / area(rest), len(crossing) / len(polys)
+    return area(moved) / area(rest.shell), len(crossing) / len(polys)
 
 
 def _clear(rest: Rest) -> None:
