@@ -46,3 +46,32 @@ def test_missing_and_corrupt_config_files(tmp_path):
     bad.write_text("render: [1, 2\n")
     with pytest.raises(UserError, match="not valid YAML"):
         load_config(bad)
+
+
+@pytest.mark.parametrize(
+    "overrides, needle",
+    [
+        ({"camera.fill": [0, 0.5]}, "camera.fill"),
+        ({"camera.fill": [0.5, 1.2]}, "camera.fill"),
+        ({"camera.fill": [0.8, 0.5]}, "camera.fill"),
+        ({"camera.offset": 0.6}, "camera.offset"),
+        ({"camera.offset": -0.1}, "camera.offset"),
+        ({"camera.partial": 1.5}, "camera.partial"),
+        ({"camera.lens_mm": [85, 35]}, "camera.lens_mm"),
+        ({"camera.lens_mm": [1, 35]}, "camera.lens_mm"),
+        ({"camera.lens_mm": 0.5}, "camera.lens_mm"),
+        ({"camera.fstop": [0, 8]}, "camera.fstop"),
+        ({"camera.fstop": [8, 2]}, "camera.fstop"),
+    ],
+)
+def test_bad_camera_framing_is_named(overrides, needle):
+    with pytest.raises(UserError, match=needle.replace(".", r"\.")) as exc:
+        load_config("quick", overrides)
+    assert "\n" not in str(exc.value)
+
+
+def test_camera_framing_is_off_by_default_and_lens_takes_a_range():
+    cam = load_config("paper").camera
+    assert (cam.fill, cam.offset, cam.partial, cam.fstop, cam.lens_mm, cam.framing) == (None, 0, 0, None, 50.0, False)
+    cam = load_config("quick", {"camera.lens_mm": [35, 85]}).camera
+    assert cam.lens_mm == (35.0, 85.0) and cam.lens_fixed == 60.0 and cam.framing

@@ -106,3 +106,53 @@ def test_bank_weights_need_a_simulation_and_a_positive_weight(setup):
         load_config("quick", {"deform.sources.lattice": 0})
     with pytest.raises(UserError, match="bank_amount"):
         load_config("quick", {"deform.bank_amount": [0.5, 2.0]})
+
+
+FRAMING = {"camera.fill": [0.4, 0.8], "camera.offset": 0.2, "camera.partial": 0.3, "camera.lens_mm": [35, 85],
+           "camera.fstop": [1.4, 16]}
+
+
+def test_default_framing_draws_what_it_drew_before(setup):
+    """camera.fill/offset/partial/lens range/fstop off: the paper's cameras, unchanged and with no new draws."""
+    from deformsim.sampling import CameraParams, draw_framing
+
+    cfg, spec = setup
+    explicit = load_config("quick", {"generate.n": 40000, "camera.fill": None, "camera.offset": 0.0,
+                                     "camera.partial": 0.0, "camera.lens_mm": 70.0, "camera.fstop": None})
+    for i in range(100):
+        p = sample_params(i, 4, cfg, spec, HDRIS)
+        assert p == sample_params(i, 4, explicit, spec, HDRIS)
+        assert draw_framing(i, 4, cfg, p.cameras) is p.cameras
+        assert all(c == CameraParams(c.azimuth, c.polar, c.radius) and not c.framed for c in p.cameras)
+
+
+def test_framing_draws_in_range_from_a_stream_of_its_own(setup):
+    cfg, spec = setup
+    on = load_config("quick", {"generate.n": 40000, **FRAMING})
+    fstop_only = load_config("quick", {"generate.n": 40000, "camera.fstop": [1.4, 16]})
+    cams, cut = [], 0
+    for i in range(500):
+        a, b = sample_params(i, 4, cfg, spec, HDRIS), sample_params(i, 4, on, spec, HDRIS)
+        c = sample_params(i, 4, fstop_only, spec, HDRIS)
+        assert b.to_dict() | {"cameras": None} == a.to_dict() | {"cameras": None}  # every other draw as before
+        for x, y, z in zip(a.cameras, b.cameras, c.cameras):
+            assert (y.azimuth, y.polar, y.radius) == (x.azimuth, x.polar, x.radius)
+            assert z.fstop == y.fstop and z.fill == 0 and z.cut_side == "" and z.lens == 0  # options draw apart
+            assert 0.4 <= y.fill <= 0.8 and abs(y.shift_x) <= 0.2 and abs(y.shift_y) <= 0.2
+            assert 35 <= y.lens <= 85 and 1.4 <= y.fstop <= 16 and y.framed
+            if y.cut_side == "none":
+                assert y.cut == 0
+            else:
+                assert y.cut_side in ("left", "right", "top", "bottom") and 0.1 <= y.cut <= 0.4
+                cut += 1
+            cams.append(y)
+        assert SampleParams.from_dict(b.to_dict()) == b
+    assert abs(cut / len(cams) - 0.3) < 0.04
+    assert np.median([c.fstop for c in cams]) < 6  # log-uniform: the geometric middle of 1.4..16 is 4.7
+
+
+def test_records_without_framing_fields_still_load(setup):
+    cfg, spec = setup
+    d = sample_params(0, 4, cfg, spec, HDRIS).to_dict()
+    d["cameras"] = [{k: c[k] for k in ("azimuth", "polar", "radius")} for c in d["cameras"]]
+    assert SampleParams.from_dict(d) == sample_params(0, 4, cfg, spec, HDRIS)

@@ -30,12 +30,69 @@ class ObjectConfig(_Model):
 
 
 class CameraConfig(_Model):
-    """Four cameras, one per azimuth quadrant, all tracking the object (paper, section III)."""
+    """Four cameras, one per azimuth quadrant, all tracking the object (paper, section III).
+
+    The defaults are the paper's Table I cameras. ``fill``, ``offset``, ``partial``, a ``lens_mm`` range and
+    ``fstop`` frame each image like a person with a camera (drawn per image, :func:`deformsim.sampling.draw_framing`;
+    placed by :mod:`deformsim.blender.cameras`); all off by default.
+    """
 
     azimuth_quadrants: list[Range] = [(20, 70), (110, 160), (200, 250), (290, 340)]
     polar: Range = (50.0, 70.0)
     radius: Range = (0.30, 0.45)
-    lens_mm: float = Field(50.0, gt=1)
+    lens_mm: float | Range = Field(50.0, description="focal length (mm), or a [min, max] range drawn per image")
+    fill: Range | None = Field(
+        None, description="fraction of the frame side the part's 2D bounding box (longer side) fills, drawn per image: "
+        "the camera distance is solved for it (radius is then ignored); None = the drawn radius"
+    )
+    offset: float = Field(
+        0.0, ge=0, le=0.5, description="the part's centre is shifted off the frame centre by up to this fraction of "
+        "the frame in x and y (lens shift: no change of perspective)"
+    )
+    partial: float = Field(
+        0.0, ge=0, le=1, description="share of images whose part crosses the frame border (10-40 % of its box cut "
+        "off at a random side)"
+    )
+    fstop: Range | None = Field(
+        None, description="depth of field: aperture f-number drawn per image (log-uniformly), focused on the part's "
+        "centre; None = off"
+    )
+
+    @field_validator("lens_mm")
+    @classmethod
+    def _lens(cls, v: float | Range) -> float | Range:
+        if isinstance(v, tuple):
+            check_range(v, name="lens_mm")
+            if v[0] <= 1:
+                raise ValueError(f"lens_mm range {list(v)} must be above 1 mm")
+        elif v <= 1:
+            raise ValueError(f"lens_mm {v} must be above 1 mm")
+        return v
+
+    @field_validator("fill")
+    @classmethod
+    def _fill(cls, v: Range | None) -> Range | None:
+        if v is not None and (check_range(v, hi=1, name="fill")[0] <= 0):
+            raise ValueError(f"fill range {list(v)} must be above 0 (fractions of the frame in (0, 1])")
+        return v
+
+    @field_validator("fstop")
+    @classmethod
+    def _fstop(cls, v: Range | None) -> Range | None:
+        if v is not None and (check_range(v, name="fstop")[0] <= 0):
+            raise ValueError(f"fstop range {list(v)} must be positive")
+        return v
+
+    @property
+    def lens_fixed(self) -> float:
+        """The lens (mm) of an image that draws none: ``lens_mm``, or the middle of its range."""
+        return self.lens_mm if not isinstance(self.lens_mm, tuple) else (self.lens_mm[0] + self.lens_mm[1]) / 2
+
+    @property
+    def framing(self) -> bool:
+        """Any of the per-image framing options is on (else every image is framed as in the paper)."""
+        return (self.fill is not None or self.offset > 0 or self.partial > 0 or isinstance(self.lens_mm, tuple)
+                or self.fstop is not None)
 
     @field_validator("polar")
     @classmethod
@@ -181,6 +238,33 @@ class DeformConfig(_Model):
         return check_range(v, 0, 1.5, name="bank_amount")  # above 1 extrapolates the simulation
 
 
+SURFACE_KINDS = ("wood", "paper", "concrete", "metal", "cloth", "conveyor", "photo")
+
+
+class SurfaceConfig(_Model):
+    """``render.surface``: a textured ground plane under the part, rendered with it as a whole scene."""
+
+    kinds: list[Literal[SURFACE_KINDS]] = Field(
+        ["wood", "paper", "concrete", "metal", "cloth", "conveyor"], min_length=1,
+        description="surface kinds drawn per sample (procedural materials; photo: a picture from photos)",
+    )
+    photos: Path | None = Field(None, description="folder of texture photos (table tops, floors) for kind photo")
+    scale: Range = Field((0.6, 1.6), description="texture scale: 1 = wood grain, weave, ridges at a real part's size")
+
+    @field_validator("scale")
+    @classmethod
+    def _scale(cls, v: Range) -> Range:
+        if v[0] <= 0:
+            raise ValueError(f"scale range {list(v)} must be positive")
+        return check_range(v, name="scale")
+
+    @model_validator(mode="after")
+    def _photos(self) -> "SurfaceConfig":
+        if "photo" in self.kinds and self.photos is None:
+            raise ValueError("render.surface kind photo needs render.surface.photos (a folder of texture photos)")
+        return self
+
+
 class RenderConfig(_Model):
     """Cycles settings."""
 
@@ -200,6 +284,10 @@ class RenderConfig(_Model):
     shadow: bool = Field(
         False, description="also write images/shadow/ID.png: the shadow and contact occlusion the part casts on a "
         "ground plane under it (a Cycles shadow catcher lit by the world), for compositing; rgba stays the part alone"
+    )
+    surface: SurfaceConfig | None = Field(
+        None, description="also write images/surface/ID.png: the part resting on a textured ground plane, the "
+        "whole scene rendered under the same light (deformsim composite uses it by composite.surface); None = off"
     )
     # Cycles quality/speed (bench/render_quality.py measures them); defaults are Blender's, max_bounces 6.
     adaptive: bool = Field(False, description="adaptive sampling: stop pixels whose noise is below the threshold")
@@ -259,6 +347,9 @@ class CameraEffects(_Model):
     white_balance: Range | None = Field((-0.08, 0.08), description="red/blue gain shift (warm > 0)")
     vignette: Range | None = Field((0.0, 0.35), description="darkening at the corners")
     blur: Range | None = Field((0.0, 0.006), description="defocus: Gaussian sigma as a fraction of the image size")
+    motion_blur: Range | None = Field(
+        None, description="camera shake: blur along a random direction, its length a fraction of the image size"
+    )
     noise: Range | None = Field((0.0, 0.025), description="sensor noise: standard deviation in 0-1 units")
     jpeg_quality: tuple[int, int] | None = Field((45, 95), description="JPEG re-compression quality")
 
@@ -303,6 +394,10 @@ class CompositeConfig(_Model):
     )
     fill_offset: float = Field(0.1, ge=0, le=0.5, description="random shift of the object from the frame centre")
     effects: CameraEffects | None = Field(None, description="camera effects per composite; None = none")
+    surface: float = Field(
+        0.0, ge=0, le=1, description="share of images that show the rendered surface scene of a dataset rendered "
+        "with render.surface instead of the part over a background (no matte; framing, flip and effects apply)"
+    )
     shadow_strength: Range = Field(
         (1.0, 1.0), description="alpha matte on a dataset rendered with render.shadow: the part's shadow darkens "
         "the background by strength * shadow, strength drawn per image from this range (0 = no shadow)"

@@ -7,7 +7,7 @@ be drawn in any order, by any worker, and a resumed run draws the same ones.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
@@ -18,9 +18,31 @@ from deformsim.spec.model import Spec
 
 @dataclass(frozen=True)
 class CameraParams:
+    """One camera image's view. The fields after ``radius`` are the per-image framing (``camera.fill``,
+    ``offset``, ``partial``, a ``lens_mm`` range, ``fstop``: :func:`draw_framing`); their defaults mean off."""
+
     azimuth: float  # degrees
     polar: float  # degrees from the up axis
-    radius: float  # metres (for the can; scaled with the object's size otherwise)
+    radius: float  # metres (for the can; scaled with the object's size otherwise); unused when fill > 0
+    fill: float = 0.0  # fraction of the frame side the part's 2D box (longer side) fills; 0 = by radius
+    shift_x: float = 0.0  # the part's box centre right of the frame centre, fraction of the frame side
+    shift_y: float = 0.0  # ... above the frame centre
+    cut: float = 0.0  # share of the part's box past the frame border (camera.partial); 0 = whole part in frame
+    cut_side: str = ""  # "left" | "right" | "top" | "bottom" the box crosses; "none": not cut; "": partial off
+    lens: float = 0.0  # focal length (mm); 0 = camera.lens_mm
+    fstop: float = 0.0  # aperture f-number of the depth of field, focused on the part's centre; 0 = no DOF
+
+    def to_dict(self) -> dict:
+        """Without the framing fields that are off: a record drawn without them is as it was before them."""
+        return {k: v for k, v in asdict(self).items() if k in ("azimuth", "polar", "radius") or v != _CAMERA_OFF[k]}
+
+    @property
+    def framed(self) -> bool:
+        """Placed by the part's projected box (fill, offset or partial), not only aimed at its centre."""
+        return self.fill > 0 or self.shift_x != 0 or self.shift_y != 0 or self.cut_side != ""
+
+
+_CAMERA_OFF = {f.name: f.default for f in fields(CameraParams)}
 
 
 @dataclass(frozen=True)
@@ -60,6 +82,21 @@ class LightParams:
     temperature: float  # colour temperature in kelvin
 
 
+@dataclass(frozen=True)
+class SurfaceParams:
+    """The ground the part rests on (``render.surface``): a procedural material or a texture photo."""
+
+    kind: str  # one of config.SURFACE_KINDS
+    hue: float  # 0..1: the surface's colour (HSV), kept plausible per kind by blender.surface
+    saturation: float
+    value: float
+    roughness: float
+    scale: float  # texture scale factor (1 = the kind's natural size at the built-in can's scale)
+    rotation: float  # degrees: the texture's turn about the vertical (grain, weave, ridge direction)
+    offset: tuple[float, float]  # texture shift (fractions of its pattern), so no two samples show the same patch
+    photo: str = ""  # kind photo: the texture photo's path
+
+
 # Geometry of each kind of area light (built-in can, metres/degrees): size, aspect (height/width), distance,
 # elevation. A ring sits just behind one of the sample's cameras, on its axis, instead (see draw_lights).
 LIGHT_KINDS = {
@@ -92,13 +129,16 @@ class SampleParams:
     bank_amount: float = 0.0
     drop_rotation: tuple[float, ...] = ()  # pose.mode drop: start orientation (unit quaternion w, x, y, z); () = tilt
     lights: tuple[LightParams, ...] = ()  # lighting.area_lights: the sample's area lights; () = HDRI only
+    surface: SurfaceParams | None = None  # render.surface: the ground the part rests on; None = no surface scene
 
     @property
     def deformed(self) -> bool:
         return self.label == "deformed"
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        d = asdict(self)
+        d["cameras"] = [c.to_dict() for c in self.cameras]
+        return d
 
     @classmethod
     def from_dict(cls, d: dict) -> "SampleParams":
@@ -111,6 +151,8 @@ class SampleParams:
             d["material"] = MaterialParams(color=tuple(m["color"]), roughness=m["roughness"])
         d["drop_rotation"] = tuple(d.get("drop_rotation", ()))
         d["lights"] = tuple(LightParams(**lp) for lp in d.get("lights", ()))
+        if d.get("surface"):
+            d["surface"] = SurfaceParams(**{**d["surface"], "offset": tuple(d["surface"]["offset"])})
         return cls(**d)
 
 
@@ -207,8 +249,86 @@ def draw_lights(index: int, seed: int, cfg: Config, cameras: tuple[CameraParams,
     return tuple(lights)
 
 
-def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[str]) -> SampleParams:
-    """Draw sample ``index`` of a run seeded ``seed``. ``hdris`` are the available HDRI names."""
+# Colour ranges (HSV) per surface kind: wood browns, white to cream paper, grey concrete, steel, any cloth, black rubber.
+SURFACE_COLOURS = {
+    "wood": {"hue": (0.04, 0.11), "saturation": (0.35, 0.75), "value": (0.25, 0.75), "roughness": (0.35, 0.7)},
+    "paper": {"hue": (0.0, 1.0), "saturation": (0.0, 0.12), "value": (0.7, 0.95), "roughness": (0.85, 1.0)},
+    "concrete": {"hue": (0.05, 0.15), "saturation": (0.0, 0.12), "value": (0.3, 0.7), "roughness": (0.85, 1.0)},
+    "metal": {"hue": (0.0, 1.0), "saturation": (0.0, 0.05), "value": (0.55, 0.9), "roughness": (0.2, 0.45)},
+    "cloth": {"hue": (0.0, 1.0), "saturation": (0.1, 0.8), "value": (0.15, 0.85), "roughness": (0.9, 1.0)},
+    "conveyor": {"hue": (0.0, 1.0), "saturation": (0.0, 0.15), "value": (0.03, 0.15), "roughness": (0.55, 0.85)},
+    "photo": {"hue": (0.0, 0.0), "saturation": (0.0, 0.0), "value": (0.8, 1.2), "roughness": (0.4, 0.9)},
+}
+IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff", ".webp")
+
+
+def surface_photos(folder) -> list[str]:
+    """The texture photos of ``render.surface.photos``, sorted (the draw picks by index); empty: a UserError."""
+    from pathlib import Path
+
+    root = Path(folder)
+    if not root.is_dir():
+        raise UserError(f"render.surface.photos: {root} is not a folder")
+    found = sorted(str(p) for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
+    if not found:
+        raise UserError(f"render.surface.photos: no images ({', '.join(IMAGE_SUFFIXES)}) in {root}")
+    return found
+
+
+def draw_surface(index: int, seed: int, cfg: Config, photos: list[str] | None = None) -> SurfaceParams | None:
+    """``render.surface``: the sample's ground, from a stream of its own (so a config without surfaces draws
+    exactly what it drew before they existed). ``photos``: :func:`surface_photos` of the config's folder."""
+    s = cfg.render.surface
+    if s is None:
+        return None
+    rng = np.random.default_rng([seed, index, 4])
+    kind = s.kinds[int(rng.integers(len(s.kinds)))]
+    c = SURFACE_COLOURS[kind]
+    hue, sat, val, rough = (float(rng.uniform(*c[k])) for k in ("hue", "saturation", "value", "roughness"))
+    scale = float(np.exp(rng.uniform(np.log(s.scale[0]), np.log(s.scale[1]))))
+    rotation, offset = float(rng.uniform(0, 360)), (float(rng.uniform()), float(rng.uniform()))
+    photo = ""
+    if kind == "photo":
+        photos = photos if photos is not None else surface_photos(s.photos)
+        photo = photos[int(rng.integers(len(photos)))]
+    return SurfaceParams(kind=kind, hue=hue, saturation=sat, value=val, roughness=rough, scale=scale,
+                         rotation=rotation, offset=offset, photo=photo)
+
+
+CUT_SIDES = ("left", "right", "top", "bottom")
+
+
+def draw_framing(index: int, seed: int, cfg: Config, cameras: tuple[CameraParams, ...]) -> tuple[CameraParams, ...]:
+    """``camera.fill``, ``offset``, ``partial``, a ``lens_mm`` range and ``fstop``: each image's framing, from a
+    stream of its own (so a config without them draws exactly what it drew before they existed); ``cameras``
+    unchanged when all are off. Every image takes the same draws whichever options are on, so turning one on
+    leaves the others' values as they were. f-numbers are drawn log-uniformly (stops are a ratio scale)."""
+    c = cfg.camera
+    if not c.framing:
+        return cameras
+    rng = np.random.default_rng([seed, index, 5])
+    out = []
+    for cam in cameras:
+        u = rng.uniform(size=8)
+        fill = float(c.fill[0] + (c.fill[1] - c.fill[0]) * u[0]) if c.fill is not None else 0.0
+        sx, sy = (float(c.offset * (2 * v - 1)) if c.offset > 0 else 0.0 for v in u[1:3])
+        cut, side = 0.0, ""
+        if c.partial > 0:
+            cut_now = u[3] < c.partial
+            cut = float(0.1 + 0.3 * u[4]) if cut_now else 0.0
+            side = CUT_SIDES[min(int(u[5] * 4), 3)] if cut_now else "none"
+        lens = float(c.lens_mm[0] + (c.lens_mm[1] - c.lens_mm[0]) * u[6]) if isinstance(c.lens_mm, tuple) else 0.0
+        fstop = 0.0
+        if c.fstop is not None:
+            fstop = float(np.exp(np.log(c.fstop[0]) + (np.log(c.fstop[1]) - np.log(c.fstop[0])) * u[7]))
+        out.append(replace(cam, fill=fill, shift_x=sx, shift_y=sy, cut=cut, cut_side=side, lens=lens, fstop=fstop))
+    return tuple(out)
+
+
+def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[str],
+                  photos: list[str] | None = None) -> SampleParams:
+    """Draw sample ``index`` of a run seeded ``seed``. ``hdris`` are the available HDRI names; ``photos``: the
+    surface texture photos (:func:`surface_photos`; listed here when None and the config uses them)."""
     if not hdris:
         raise ValueError("no HDRI available")
     rng = rng_for(seed, index)
@@ -300,7 +420,7 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
         hdri=hdri,
         hdri_rotation=rotation,
         hdri_strength=strength,
-        cameras=cameras,
+        cameras=draw_framing(index, seed, cfg, cameras),
         design=design,
         material=material,
         extent=extent,
@@ -310,4 +430,5 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
         bank_amount=bank_amount,
         drop_rotation=draw_drop(index, seed, cfg.pose.drop_upright) if cfg.pose.mode == "drop" else (),
         lights=draw_lights(index, seed, cfg, cameras),
+        surface=draw_surface(index, seed, cfg, photos),
     )

@@ -48,7 +48,7 @@ def _read(layout: Layout, kind: str, cam: int, sample: int = 0) -> np.ndarray:
 
 
 def test_reply_names_shadow_only_when_on(shadows):
-    assert all(r["shadow"] is True for r in shadows[True][1]) and all("shadow" not in r for r in shadows[False][1])
+    assert all(r["scene"] == ["shadow"] for r in shadows[True][1]) and all("scene" not in r for r in shadows[False][1])
     assert not (shadows[False][0].root / "images" / "shadow").exists()
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from deformsim.composite.effects import apply_effects
 from deformsim.config import CameraEffects
@@ -50,3 +51,18 @@ def test_blur_and_noise_change_local_contrast_as_expected():
 
     assert edges(blur) < edges(img) / 2
     assert noisy[flat].std() > 8 and img[flat].std() == 0
+
+
+def test_motion_blur_smears_along_its_direction_only():
+    img = np.zeros((64, 64, 3), np.uint8)
+    img[32, 32] = 255  # a point light
+    fx = CameraEffects(**{**OFF, "motion_blur": (0.15, 0.15)})
+    out, info = apply_effects(img, fx, np.random.default_rng(1))
+    again, _ = apply_effects(img, fx, np.random.default_rng(1))
+    assert np.array_equal(out, again) and info["fx_motion_blur"] == pytest.approx(0.15 * 64)
+    ys, xs = np.nonzero(out[..., 0] > 0)
+    t = np.radians(info["fx_motion_angle"])
+    along = (xs - 32) * np.cos(t) + (ys - 32) * np.sin(t)
+    across = -(xs - 32) * np.sin(t) + (ys - 32) * np.cos(t)
+    assert np.ptp(along) >= 0.15 * 64 - 2 and np.abs(across).max() <= 1.5  # a streak 9.6 px long, 1-2 px wide
+    assert abs(float(np.average(along, weights=out[ys, xs, 0]))) < 0.5  # centred: the image does not shift

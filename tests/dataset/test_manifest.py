@@ -41,3 +41,16 @@ def test_a_record_whose_maps_are_missing_is_not_resumed(tmp_path):
     assert read_record(layout, 3) is not None
     layout.image("deform", image_id(3, 1)).unlink()
     assert read_record(layout, 3) is None
+
+
+def test_framing_columns_only_for_the_options_that_are_on(tmp_path):
+    spec, hdris, quads = load_spec(None), list_hdris(None), [(20, 70), (200, 250)]
+    plain = rows_for(_sample(), Layout(tmp_path), [1.0, 1.0])
+    assert not [k for k in plain[0] if k.startswith("cam_") and k not in ("cam_azimuth", "cam_polar", "cam_radius")]
+    for extra, cols in [({"camera.fill": [0.5, 0.7]}, {"cam_fill"}),
+                        ({"camera.offset": 0.1}, {"cam_shift_x", "cam_shift_y"}),
+                        ({"camera.partial": 0.01}, {"cam_cut", "cam_cut_side"}),  # on, though no image is cut
+                        ({"camera.lens_mm": [35, 85]}, {"cam_lens"}), ({"camera.fstop": [2, 8]}, {"cam_fstop"})]:
+        cfg = load_config("quick", {"camera.azimuth_quadrants": quads, **extra})
+        rows = rows_for(sample_params(3, 0, cfg, spec, hdris), Layout(tmp_path), [1.0, 1.0])
+        assert set(rows[0]) - set(plain[0]) == cols and set(plain[0]) <= set(rows[0])

@@ -3,8 +3,9 @@
 ``rgba`` is Cycles' exact-alpha render (transparent film). ``black`` and ``green`` are composited over it
 in 8-bit straight alpha (rgb*a + C*(1-a)), or, with ``render.render_backgrounds``, rendered by Cycles with
 the world showing that colour to camera rays only (pixels the object does not cover are set exactly).
-With ``render.shadow`` a second render per camera gives ``shadow``, the part's shadow on the ground
-(:mod:`deformsim.blender.shadow`); the images above do not change.
+With ``render.shadow`` one more render per camera gives ``shadow``, the part's shadow on the ground
+(:mod:`deformsim.blender.shadow`), and with ``render.surface`` one more gives ``surface``, the part on a textured
+ground rendered whole (:mod:`deformsim.blender.surface`); the images above do not change.
 """
 
 from __future__ import annotations
@@ -21,13 +22,13 @@ from PIL import Image
 
 from deformsim.atomic import atomic_path
 from deformsim.blender import cameras as cams
-from deformsim.blender import dense, drop, materials, shadow
+from deformsim.blender import dense, drop, materials, shadow, surface
 from deformsim.blender.lights import set_lights
 from deformsim.blender.pose import set_pose
 from deformsim.blender.rig import Rig
 from deformsim.blender.world import World
 from deformsim.config import Config
-from deformsim.dataset.layout import SHADOW_KIND, Layout, image_id
+from deformsim.dataset.layout import SHADOW_KIND, SURFACE_KIND, Layout, image_id
 from deformsim.sampling import SampleParams
 from deformsim.spec.model import Spec
 
@@ -51,6 +52,7 @@ class RenderContext:
     ground: float = 0.0  # z the part stands on at rest (pose.mode drop: the ground it falls onto)
     rest: drop.DropResult | None = None  # pose.mode drop: how the last sample came to rest
     catcher: object = None  # render.shadow: the shadow-catcher ground plane (blender.shadow), built on first use
+    ground_plane: object = None  # render.surface: the textured ground plane (blender.surface), built on first use
 
 
 def over_color(rgba: np.ndarray, color: tuple[int, int, int]) -> np.ndarray:
@@ -122,6 +124,12 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[
         if ctx.catcher is None:
             ctx.catcher = shadow.make_catcher(scene, ctx.camera_scale)
         shadow.place(ctx.catcher, ctx.obj, target)
+    if ctx.cfg.render.surface is not None:
+        if p.surface is None:
+            raise ValueError(f"sample {p.index} has no surface (drawn without render.surface?)")
+        if ctx.ground_plane is None:
+            ctx.ground_plane = surface.make_surface(scene, ctx.camera_scale)
+        surface.set_surface(ctx.ground_plane, ctx.obj, target, p.surface, ctx.camera_scale)
     for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
         cams.place(cam, cp, target, ctx.camera_scale)
         scene.camera = cam
@@ -142,14 +150,20 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[
                 img = over_color(rgba, color)
             _save(layout.image(kind, iid), img)
         seconds.append(t)
-    if ctx.cfg.render.shadow:  # after every other image of the sample (see blender.shadow: the session is reset)
+    # after every other image of the sample: the last of these passes resets the Cycles session (blender.shadow)
+    passes = [k for k, on in ((SHADOW_KIND, ctx.cfg.render.shadow), (SURFACE_KIND, ctx.cfg.render.surface)) if on]
+    for kind in passes:
         for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
             cams.place(cam, cp, target, ctx.camera_scale)
             scene.camera = cam
-            path = layout.image(SHADOW_KIND, image_id(p.index, c))
-            alpha, dt = shadow.render_alpha(scene, ctx.catcher, ctx.obj, _render_to_array, path,
-                                            last=c == len(ctx.cameras) - 1)
-            _save(path, shadow.shadow_map(alpha, alphas[c]))
+            path = layout.image(kind, image_id(p.index, c))
+            last = kind == passes[-1] and c == len(ctx.cameras) - 1
+            if kind == SHADOW_KIND:
+                alpha, dt = shadow.render_alpha(scene, ctx.catcher, ctx.obj, _render_to_array, path, last=last)
+                _save(path, shadow.shadow_map(alpha, alphas[c]))
+            else:
+                rgb, dt = surface.render_scene(scene, ctx.ground_plane, ctx.world, _render_to_array, path, last=last)
+                _save(path, rgb)
             seconds[c] += dt
     return seconds, rows
 

@@ -7,7 +7,8 @@ JSON lines on stdin, one reply line each on the real stdout (Blender's own print
   -> ``{"ready": true, "device": str, "camera_scale": float, "object_size": [dx, dy, dz], "pid": int}``
 - ``{"render": SampleParams.to_dict()}`` -> ``{"done": index, "render_seconds": [...], "dense": [{...}]|null}``
   (``dense``: each image's dense-map manifest columns, with ``render.dense``; ``pose``: the resting pose's
-  manifest columns with ``pose.mode`` drop, else null; ``"shadow": true`` with ``render.shadow``) or
+  manifest columns with ``pose.mode`` drop, else null; ``"scene": ["shadow", "surface"]``: the
+  extra images written with ``render.shadow`` / ``render.surface``, only when one is on) or
   ``{"error": index, "message": str, "traceback": str}`` (the worker lives on)
 - ``{"configure": RenderConfig dict}`` -> ``{"configured": device}``: new Cycles settings, same scene
 - ``{"quit": true}`` -> exit 0 (so does the end of stdin)
@@ -77,7 +78,7 @@ def setup(msg: dict):
     pivot = make_pivot(scene, (lo + hi) / 2, [obj, rig.lattice])
     world = World(scene, cfg.lighting.hdri_dir)
     make_lights(scene, cfg.lighting.area_lights.count[1])
-    cameras = make_cameras(scene, len(cfg.camera.azimuth_quadrants), cfg.camera.lens_mm, camera_scale)
+    cameras = make_cameras(scene, len(cfg.camera.azimuth_quadrants), cfg.camera.lens_fixed, camera_scale, subject=obj)
     device = scn.configure_cycles(scene, cfg.render, int(msg.get("threads") or cfg.render.threads))
     ctx = RenderContext(
         cfg=cfg,
@@ -113,8 +114,9 @@ def render(ctx, layout, params: dict) -> dict:
     bpy.data.orphans_purge(do_local_ids=True, do_linked_ids=True, do_recursive=True)
     pose = rest_columns(ctx.rest) if ctx.cfg.pose.mode == "drop" else None
     reply = {"done": p.index, "render_seconds": seconds, "dense": dense, "pose": pose}
-    if ctx.cfg.render.shadow:  # only then, so that the reply (and the manifest) stays as it was without shadows
-        reply["shadow"] = True
+    scene = [kind for kind, on in (("shadow", ctx.cfg.render.shadow), ("surface", ctx.cfg.render.surface)) if on]
+    if scene:  # only then, so that the reply (and the manifest) stays as it was without them
+        reply["scene"] = scene
     return reply
 
 

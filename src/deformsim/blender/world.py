@@ -46,6 +46,16 @@ class World:
         link(mix.outputs["Shader"], out.inputs["Surface"])
         self.flat_bg.inputs["Strength"].default_value = 1.0
         self.set_camera_color((0.0, 0.0, 0.0))
+        self.mix, self.is_camera = mix, path
+
+    def camera_sees_hdri(self, on: bool) -> None:
+        """Camera rays see the HDRI itself (a rendered scene's sky) instead of the flat colour, or back."""
+        fac = self.mix.inputs["Fac"]
+        for link in list(fac.links):
+            self.mix.id_data.links.remove(link)
+        fac.default_value = 0.0
+        if not on:
+            self.mix.id_data.links.new(self.is_camera.outputs["Is Camera Ray"], fac)
 
     def set(self, hdri: str, rotation_deg: float, strength: float) -> None:
         self.env.image = self._image(hdri)

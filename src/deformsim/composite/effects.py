@@ -2,7 +2,7 @@
 
 Each effect is drawn per image from the image's own generator and returned as a record for the manifest,
 so a variant is reproducible and every image says what was done to it. An effect whose range is None is off.
-Order: exposure and white balance (in linear light), vignetting, defocus blur, sensor noise, JPEG.
+Order: exposure and white balance (in linear light), vignetting, defocus blur, motion blur, sensor noise, JPEG.
 """
 
 from __future__ import annotations
@@ -20,6 +20,23 @@ def _to_linear(srgb: np.ndarray) -> np.ndarray:
 def _to_srgb(lin: np.ndarray) -> np.ndarray:
     lin = np.clip(lin, 0.0, 1.0)
     return np.where(lin <= 0.0031308, lin * 12.92, 1.055 * lin ** (1 / 2.4) - 0.055)
+
+
+def motion_kernel(length: float, angle: float) -> np.ndarray:
+    """A normalised line kernel ``length`` pixels long at ``angle`` degrees: points along the line, splatted
+    bilinearly, so it is centred and symmetric at any length and angle."""
+    size = (int(np.ceil(length)) + 2) | 1
+    c, t = (size - 1) / 2, np.radians(angle)
+    s = np.linspace(-length / 2, length / 2, 16 * size)
+    x, y = c + s * np.cos(t), c + s * np.sin(t)
+    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    fx, fy = x - x0, y - y0
+    k = np.zeros((size + 1, size + 1), np.float64)
+    for dy, wy in ((0, 1 - fy), (1, fy)):
+        for dx, wx in ((0, 1 - fx), (1, fx)):
+            np.add.at(k, (y0 + dy, x0 + dx), wx * wy)
+    k = k[:size, :size]
+    return (k / k.sum()).astype(np.float32)
 
 
 def apply_effects(img: np.ndarray, fx: CameraEffects, rng: np.random.Generator) -> tuple[np.ndarray, dict]:
@@ -49,6 +66,12 @@ def apply_effects(img: np.ndarray, fx: CameraEffects, rng: np.random.Generator) 
         if sigma > 0.05:
             x = cv2.GaussianBlur(x, (0, 0), sigmaX=sigma, sigmaY=sigma, borderType=cv2.BORDER_REFLECT)
         info["fx_blur"] = sigma
+    if fx.motion_blur is not None:
+        length = float(rng.uniform(*fx.motion_blur)) * min(h, w)
+        angle = float(rng.uniform(0, 180))
+        if length > 1.0:
+            x = cv2.filter2D(x, -1, motion_kernel(length, angle), borderType=cv2.BORDER_REFLECT)
+        info["fx_motion_blur"], info["fx_motion_angle"] = length, angle
     if fx.noise is not None:
         std = float(rng.uniform(*fx.noise))
         x = x + rng.normal(0.0, std, size=x.shape).astype(np.float32)

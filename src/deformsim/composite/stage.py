@@ -7,7 +7,9 @@ draws from its own generator ``default_rng([seed, stable_int(id)])``, so the res
 number of workers. The variant is built in a staging folder and swapped in only when complete. Optional
 steps, each recorded per image: a class-balanced choice of background photo, framing around the object
 (:mod:`deformsim.composite.framing`), a left-right flip of the part (``flip_part``, from a generator of its own)
-and camera effects (:mod:`deformsim.composite.effects`). With the alpha matte, a dataset rendered with
+and camera effects (:mod:`deformsim.composite.effects`). With ``composite.surface`` a share of the images (drawn
+per image from a generator of its own) shows the dataset's rendered surface scene (``render.surface``) instead:
+no matte and no background, framed, flipped and with effects like the rest. With the alpha matte, a dataset rendered with
 ``render.shadow`` also gets the part's shadow: the background behind the part is multiplied by
 ``1 - strength * shadow`` (the shadow map moved like the part, bilinear; ``strength`` drawn per image from
 ``shadow_strength`` with a generator of its own) before the part is laid over it. The chroma keys ignore it.
@@ -43,7 +45,7 @@ from deformsim.composite.framing import frame_matrix, warp
 from deformsim.composite.maps import MAP_KINDS, move_maps, read_maps, write_maps
 from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inrange_matte
 from deformsim.config import CompositeConfig
-from deformsim.dataset.layout import RENDER_KINDS, SHADOW_KIND, Layout
+from deformsim.dataset.layout import RENDER_KINDS, SHADOW_KIND, SURFACE_KIND, Layout
 from deformsim.dataset.manifest import read_manifest
 from deformsim.dataset.variants import VARIANT_MANIFEST
 from deformsim.errors import UserError
@@ -62,6 +64,7 @@ def stable_int(iid: str) -> int:
 SETTINGS_FILE = "composite.json"
 FLIP_STREAM = 0xF11F  # the part flip's own generator, so turning it on moves no other draw
 SHADOW_STREAM = 0x5AAD  # the shadow strength's own generator, likewise
+SURFACE_STREAM = 0x5CE7  # the choice of the rendered surface scene's own generator, likewise
 
 
 def variant_settings(name: str, seed: int, cfg: CompositeConfig) -> dict:
@@ -86,7 +89,7 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
         raise UserError(f"invalid variant name {name!r}: letters, digits, '_-.' and not {'/'.join(RENDER_KINDS)}")
     photos = [str(p) for p in scan_backgrounds(cfg.backgrounds)] if cfg.backgrounds else []
     source = "rgba" if cfg.matte == "alpha" else "green"
-    jobs = _jobs(layout, manifest, source, shadows=cfg.matte == "alpha")
+    jobs = _jobs(layout, manifest, source, shadows=cfg.matte == "alpha", surfaces=cfg.surface > 0)
     if photos and cfg.balance_backgrounds:
         first = balanced_photos(manifest["id"].tolist(), manifest["y"].tolist(), len(photos), seed)
         jobs = [(*job, first[job[0]]) for job in jobs]
@@ -104,7 +107,8 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
         if photos:
             base = Path(cfg.backgrounds)
             for r in rows:
-                r["background"] = str(Path(r["background"]).relative_to(base))
+                if r["background"] != SURFACE_KIND:
+                    r["background"] = str(Path(r["background"]).relative_to(base))
         df = pd.DataFrame(rows).sort_values("id").reset_index(drop=True)
         df.to_parquet(tmp / VARIANT_MANIFEST, index=False)
         write_json(tmp / SETTINGS_FILE, variant_settings(name, seed, cfg))
@@ -126,11 +130,16 @@ def balanced_photos(ids: list[str], labels: list[int], n_photos: int, seed: int)
     return out
 
 
-def _jobs(layout: Layout, manifest: pd.DataFrame, source: str, shadows: bool = False) -> list[tuple]:
-    """``(id, source image, exact-alpha render or None, dense map paths or None, shadow map or None)`` per image,
-    all checked to exist; ``shadows``: use the shadow maps where the dataset has them."""
+def _jobs(layout: Layout, manifest: pd.DataFrame, source: str, shadows: bool = False,
+          surfaces: bool = False) -> list[tuple]:
+    """``(id, source image, exact-alpha render or None, dense map paths or None, shadow map or None, rendered surface
+    scene or None)`` per image, all checked to exist; ``shadows``: use the shadow maps where the dataset has them;
+    ``surfaces``: the dataset must have surface scenes (``render.surface``)."""
     if manifest.empty:
         raise UserError(f"dataset {layout.root} has no images")
+    if surfaces and SURFACE_KIND not in manifest.columns:
+        raise UserError(f"composite.surface needs surface scenes, and dataset {layout.root} was rendered without "
+                        "render.surface: render it with render.surface, or set composite.surface to 0")
     dense = "mask" in manifest.columns
     jobs = []
     for row in manifest.itertuples(index=False):
@@ -145,8 +154,13 @@ def _jobs(layout: Layout, manifest: pd.DataFrame, source: str, shadows: bool = F
         shadow = layout.root / getattr(row, SHADOW_KIND) if shadows and SHADOW_KIND in manifest.columns else None
         if shadow is not None and not shadow.is_file():
             raise UserError(f"shadow map missing: {shadow} (is the dataset at {layout.root} complete?)")
+        scene = layout.root / getattr(row, SURFACE_KIND) if surfaces else None
+        if scene is not None and not (scene.is_file() and exact is not None and exact.is_file()):
+            raise UserError(f"surface scene or its rgba render missing: {scene} (is the dataset at {layout.root} "
+                            "complete?)")
         jobs.append((row.id, str(src), str(exact) if exact is not None and exact.is_file() else None,
-                     {k: str(p) for k, p in maps.items()} if maps else None, str(shadow) if shadow else None))
+                     {k: str(p) for k, p in maps.items()} if maps else None, str(shadow) if shadow else None,
+                     str(scene) if scene else None))
     return jobs
 
 
@@ -196,10 +210,13 @@ def _read(path: str, flags: int) -> np.ndarray:
 
 
 def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | None = None,
-                  shadow: str | None = None, photo: int | None = None) -> dict:
+                  shadow: str | None = None, scene: str | None = None, photo: int | None = None) -> dict:
     """Matte, background and composite one image (worker side); writes it (and its moved maps) and returns its
-    manifest row. ``shadow``: the part's shadow map (alpha matte only)."""
+    manifest row. ``shadow``: the part's shadow map (alpha matte only); ``scene``: the rendered surface scene,
+    shown whole instead with probability ``composite.surface``."""
     cfg, rng = _STATE["cfg"], np.random.default_rng([_STATE["seed"], stable_int(iid)])
+    if scene is not None and use_surface(_STATE["seed"], iid, cfg.surface):
+        return _surface_one(iid, scene, exact, maps, rng, cfg)
     if cfg.matte == "alpha":
         alpha, fg = alpha_matte(_read(src, cv2.IMREAD_UNCHANGED))
         iou = float("nan")
@@ -230,13 +247,48 @@ def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | 
         bg = bg * (1.0 - strength * shade)[..., None]
         info["shadow_strength"] = strength
     out = fg + (1.0 - alpha)[..., None] * bg
-    out = np.clip(np.rint(out), 0, 255).astype(np.uint8)
+    return _finish(iid, out, rng, cfg, {"matte": cfg.matte, **info}, iou)
+
+
+def _surface_one(iid: str, scene: str, exact: str, maps: dict[str, str] | None, rng: np.random.Generator,
+                 cfg: CompositeConfig) -> dict:
+    """One image that shows the rendered surface scene whole: framed around the part (its box from the exact
+    alpha), flipped and given camera effects like a composite, with no matte and no background."""
+    img = _read(scene, cv2.IMREAD_COLOR).astype(np.float32)
+    alpha = _read(exact, cv2.IMREAD_UNCHANGED)[..., 3].astype(np.float32) / 255.0
+    h, w = alpha.shape
+    if img.shape[:2] != (h, w):
+        raise UserError(f"surface scene {scene} is {img.shape[1]}x{img.shape[0]}, its render {w}x{h}")
+    dense = read_maps(maps, (h, w)) if maps else None
+    info: dict = {"background": SURFACE_KIND}
+    m = None
+    if cfg.object_fill is not None:
+        m, frame = frame_matrix(alpha, cfg.object_fill, cfg.fill_offset, rng)
+        img = warp(img, m)
+        info.update(frame)
+    flip = part_flip(_STATE["seed"], iid, cfg.flip_part)
+    img = img[:, ::-1] if flip else img
+    info["part_flip"] = flip
+    if dense:
+        info.update(write_maps(move_maps(dense, m, flip), _STATE["maps_out"], _STATE["maps_prefix"], iid))
+    return _finish(iid, img, rng, cfg, {"matte": "none", **info}, float("nan"))
+
+
+def _finish(iid: str, img: np.ndarray, rng: np.random.Generator, cfg: CompositeConfig, info: dict,
+            iou: float) -> dict:
+    """Round ``img`` to 8 bits, add the camera effects, write it; return its manifest row (``iou``: the matte's)."""
+    out = np.clip(np.rint(img), 0, 255).astype(np.uint8)
     if cfg.effects is not None:
         out, fx = apply_effects(out, cfg.effects, rng)
         info.update(fx)
     if not cv2.imwrite(os.path.join(_STATE["out"], f"{iid}.png"), cv2.cvtColor(out, cv2.COLOR_RGB2BGR)):
         raise OSError(f"cannot write composite of {iid} to {_STATE['out']}")
-    return {"id": iid, "image": f"{_STATE['prefix']}/{iid}.png", "matte": cfg.matte, **info, "matte_iou": iou}
+    return {"id": iid, "image": f"{_STATE['prefix']}/{iid}.png", **info, "matte_iou": iou}
+
+
+def use_surface(seed: int, iid: str, p: float) -> bool:
+    """Whether image ``iid`` shows its rendered surface scene: probability ``p``, from a generator of its own."""
+    return bool(p >= 1 or (p > 0 and np.random.default_rng([seed, stable_int(iid), SURFACE_STREAM]).random() < p))
 
 
 def part_flip(seed: int, iid: str, p: float) -> bool:

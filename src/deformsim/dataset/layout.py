@@ -7,6 +7,7 @@
       images/{rgba,black,green}/ID.png  exact-alpha render and its black / green camera-background variants
       images/{mask,depth,normal,deform,region}/ID.png  dense ground truth (render.dense; see dataset.dense)
       images/shadow/ID.png            8-bit opacity of the part's shadow on the ground (render.shadow)
+      images/surface/ID.png           the part on a textured ground, the whole scene rendered (render.surface)
       manifest.parquet, manifest.csv  one row per image, consolidated from the sample records
       preview.png                     contact sheet
       variants/NAME/                  composited variants: images/ID.png + manifest.parquet
@@ -20,6 +21,8 @@ from pathlib import Path
 RENDER_KINDS = ("rgba", "black", "green")
 DENSE_KINDS = ("mask", "depth", "normal", "deform", "region")
 SHADOW_KIND = "shadow"  # render.shadow: the shadow the part casts on the ground (blender.shadow)
+SURFACE_KIND = "surface"  # render.surface: the part resting on a textured ground, rendered whole (blender.surface)
+SCENE_KINDS = (SHADOW_KIND, SURFACE_KIND)  # images a sample has only when its option is on
 
 
 def image_id(sample: int, camera: int) -> str:

@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 
 from deformsim.atomic import atomic_path, write_json
-from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, SHADOW_KIND, Layout, image_id
+from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, SCENE_KINDS, Layout, image_id
 from deformsim.errors import UserError
 from deformsim.sampling import SampleParams
 
@@ -22,12 +22,14 @@ VOLATILE_COLUMNS = ("render_seconds",)
 
 
 def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camera_scale: float = 1.0,
-             dense: list[dict] | None = None, pose: dict | None = None, shadow: bool = False) -> list[dict]:
+             dense: list[dict] | None = None, pose: dict | None = None, scene: tuple[str, ...] = ()) -> list[dict]:
     """The manifest rows of one sample, one per camera; ``dense``: each image's dense-map columns from the
     worker (``render.dense``), which add the paths of the maps; ``pose``: the resting pose's columns from the
-    worker (``pose.mode`` drop: ``rest_qw..rest_qz``, ``rest_tilt``, ...); ``shadow``: the images have shadow
-    maps (``render.shadow``), a ``shadow`` path column."""
+    worker (``pose.mode`` drop: ``rest_qw..rest_qz``, ``rest_tilt``, ...); ``scene``: the kinds of
+    :data:`~deformsim.dataset.layout.SCENE_KINDS` the images have (``render.shadow``, ``render.surface``), a path
+    column each; with a surface, ``surface_params`` records the drawn ground."""
     rows = []
+    framing = framing_columns(p)
     for c, cam in enumerate(p.cameras):
         iid = image_id(p.index, c)
         row = {
@@ -55,6 +57,7 @@ def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camer
             "cam_azimuth": cam.azimuth,
             "cam_polar": cam.polar,
             "cam_radius": cam.radius,
+            **{col: getattr(cam, field) for field, col in framing},
             "camera_scale": camera_scale,
             "design": json.dumps(p.design.__dict__ if p.design else None, sort_keys=True),
             "material": json.dumps(p.material.__dict__ if p.material else None, sort_keys=True),
@@ -64,10 +67,28 @@ def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camer
         }
         if dense is not None:
             row.update({kind: layout.rel(layout.image(kind, iid)) for kind in DENSE_KINDS}, **dense[c])
-        if shadow:
-            row[SHADOW_KIND] = layout.rel(layout.image(SHADOW_KIND, iid))
+        row.update({kind: layout.rel(layout.image(kind, iid)) for kind in scene})
+        if p.surface is not None:
+            row["surface_params"] = json.dumps(p.surface.__dict__, sort_keys=True)
         rows.append(row)
     return rows
+
+
+def framing_columns(p: SampleParams) -> list[tuple[str, str]]:
+    """(CameraParams field, manifest column) of each per-image framing option the sample's config turns on
+    (``camera.fill``, ``offset``, ``partial``, a ``lens_mm`` range, ``fstop``), so a manifest without them is as
+    it was. Told by the drawn values: an option that is on never draws its off value (0, or "" for the cut side;
+    both shifts of every image exactly 0 with offset on has probability 2**-53 per draw)."""
+    cams = p.cameras
+    on = {
+        "fill": any(c.fill > 0 for c in cams),
+        "shift_x": any(c.shift_x != 0 or c.shift_y != 0 for c in cams),
+        "cut": any(c.cut_side != "" for c in cams),
+        "lens": any(c.lens > 0 for c in cams),
+        "fstop": any(c.fstop > 0 for c in cams),
+    }
+    groups = {"shift_x": ("shift_x", "shift_y"), "cut": ("cut", "cut_side")}
+    return [(f, f"cam_{f}") for key, flag in on.items() if flag for f in groups.get(key, (key,))]
 
 
 def write_record(layout: Layout, p: SampleParams, rows: list[dict]) -> None:
@@ -82,7 +103,7 @@ def read_record(layout: Layout, index: int) -> dict | None:
     except (OSError, ValueError):
         return None
     for row in rec.get("rows", []):
-        if not all((layout.root / row[k]).is_file() for k in (*RENDER_KINDS, *DENSE_KINDS, SHADOW_KIND) if k in row):
+        if not all((layout.root / row[k]).is_file() for k in (*RENDER_KINDS, *DENSE_KINDS, *SCENE_KINDS) if k in row):
             return None
     return rec
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from deformsim.bank.store import bank_dir
 from deformsim.config import Config
-from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, SHADOW_KIND, Layout
+from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, SCENE_KINDS, Layout
 from deformsim.dataset.manifest import rows_for, write_record
 from deformsim.errors import ResourceError
 from deformsim.log import get_logger
@@ -43,14 +43,14 @@ def worker_setup(cfg: Config, layout: Layout, bank: Path | None = None) -> dict:
 
 
 def finish_sample(layout: Layout, p: SampleParams, render_seconds: list[float], camera_scale: float,
-                  dense: list[dict] | None = None, pose: dict | None = None, shadow: bool = False) -> None:
+                  dense: list[dict] | None = None, pose: dict | None = None, scene: tuple[str, ...] = ()) -> None:
     """Record a rendered sample: its record is what marks it done for a resumed run."""
-    write_record(layout, p, rows_for(p, layout, render_seconds, camera_scale, dense, pose, shadow))
+    write_record(layout, p, rows_for(p, layout, render_seconds, camera_scale, dense, pose, scene))
 
 
 def remove_partial_files(layout: Layout) -> None:
     """Temporary files of an interrupted run (never valid output) are removed before resuming."""
-    for kind in (*RENDER_KINDS, *DENSE_KINDS, SHADOW_KIND):
+    for kind in (*RENDER_KINDS, *DENSE_KINDS, *SCENE_KINDS):
         for tmp in (layout.root / "images" / kind).glob(".*"):
             tmp.unlink(missing_ok=True)
 

@@ -97,7 +97,7 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
                     retry_or_fail(i, reply.get("message", "render error"))
                     continue
                 finish_sample(layout, params[i], reply["render_seconds"], camera_scale, reply.get("dense"), reply.get("pose"),
-                              bool(reply.get("shadow")))
+                              tuple(reply.get("scene", ())))
                 rendered += views
                 with lock:
                     remaining[0] -= 1

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from deformsim.atomic import write_bytes
 from deformsim.config import Config
-from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, SHADOW_KIND, Layout, image_id
+from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, Layout, image_id
 from deformsim.errors import UserError
 from deformsim.generate.backend import Retries, finish_sample, worker_setup
 from deformsim.log import get_logger, progress_bar
@@ -62,7 +62,7 @@ class RenderActor:
             files = {}
             for c in range(len(params["cameras"])):
                 kinds = RENDER_KINDS + (DENSE_KINDS if reply.get("dense") else ())
-                for kind in kinds + ((SHADOW_KIND,) if reply.get("shadow") else ()):
+                for kind in kinds + tuple(reply.get("scene", ())):
                     path = layout.image(kind, image_id(params["index"], c))
                     files[layout.rel(path)] = path.read_bytes()
                     path.unlink()
@@ -125,7 +125,7 @@ def run_ray(cfg: Config, layout: Layout, params: dict[int, SampleParams], progre
                 for rel, data in reply.get("files", {}).items():
                     write_bytes(layout.root / rel, data)
                 finish_sample(layout, params[i], reply["render_seconds"], reply["camera_scale"], reply.get("dense"),
-                              reply.get("pose"), bool(reply.get("shadow")))
+                              reply.get("pose"), tuple(reply.get("scene", ())))
                 device = reply.get("device", device)
                 bar.update(views)
         ray.get([a.close.remote() for a in idle])

@@ -37,7 +37,7 @@ from deformsim.hdri import hdri_files, list_hdris
 from deformsim.identity import digest, file_digest, files_digest
 from deformsim.log import get_logger
 from deformsim.outputs import check_folder_target, read_inputs, remove_folder
-from deformsim.sampling import allowed_families, sample_params
+from deformsim.sampling import allowed_families, sample_params, surface_photos
 from deformsim.spec.model import Spec, check_mesh_file, load_spec, units_hint
 from deformsim.version import __version__
 
@@ -69,7 +69,13 @@ def data_settings(cfg: Config) -> dict:
         out[section] = {k: v for k, v in out[section].items() if k not in keys}
     if out["pose"]["mode"] == "tilt":  # the drop settings (added later) do not change tilt-mode data: keep its identity
         out["pose"] = {k: v for k, v in out["pose"].items() if k == "tilt"}
+    for section, off in _ADDED_LATER.items():  # so are options added later, while off: older datasets keep theirs
+        out[section] = {k: v for k, v in out[section].items() if k not in off or v != off[k]}
     return out
+
+
+# Options added after datasets were made, and their "off" values: left out of the identity while off.
+_ADDED_LATER = {"camera": {"fill": None, "offset": 0.0, "partial": 0.0, "fstop": None}, "render": {"surface": None}}
 
 
 def n_samples(cfg: Config) -> int:
@@ -91,7 +97,14 @@ def input_digests(cfg: Config, spec: Spec | None = None) -> dict:
         "spec": hashlib.sha256(json.dumps(spec.model_dump(mode="json"), sort_keys=True).encode()).hexdigest(),
         "hdri": files_digest(list(hdri_files(hdri).values()), hdri) if hdri is not None else None,
         "bank": bank_key(spec, mesh) if cfg.deform.sources.uses_bank and spec.simulation else None,
+        **({"surface": files_digest(photos, cfg.render.surface.photos)} if (photos := texture_photos(cfg)) else {}),
     }
+
+
+def texture_photos(cfg: Config) -> list[str] | None:
+    """The surface texture photos the config draws from (``render.surface`` with kind photo), else None."""
+    s = cfg.render.surface
+    return surface_photos(s.photos) if s is not None and "photo" in s.kinds else None
 
 
 def data_identity(cfg: Config, spec: Spec | None = None) -> dict:
@@ -129,6 +142,7 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
         raise UserError(f"deform.sources uses the simulated bank, but spec '{spec.name}' declares no simulation "
                         "scenarios (set deform.sources.bank and .both to 0, or add simulation: to the spec)")
     hdris = list_hdris(cfg.lighting.hdri_dir)
+    texture_photos(cfg)
     conflict = existing_dataset(cfg, out, spec)
     if conflict is not None and not overwrite:
         raise UserError(f"{out} {conflict}")
@@ -169,9 +183,10 @@ def existing_dataset(cfg: Config, out: Path, spec: Spec) -> str | None:
     now = input_digests(cfg, spec)
     for name, what in (("renderer", "renderer revision"), ("mesh", f"mesh {cfg.object.mesh}"),
                        ("spec", f"spec {cfg.object.spec or '(built-in)'}"),
-                       ("hdri", f"HDRI folder {cfg.lighting.hdri_dir}")):
-        if recorded["inputs"].get(name) != now[name]:
-            was, new_hash = (recorded["inputs"].get(name) or "none")[:12], (now[name] or "none")[:12]
+                       ("hdri", f"HDRI folder {cfg.lighting.hdri_dir}"),
+                       ("surface", f"surface photo folder {cfg.render.surface and cfg.render.surface.photos}")):
+        if recorded["inputs"].get(name) != now.get(name):
+            was, new_hash = (recorded["inputs"].get(name) or "none")[:12], (now.get(name) or "none")[:12]
             return (f"was rendered from other contents of its {what} (sha256 {was}... there, {new_hash}... now): "
                     f"{_REPLACE}")
     samples = sorted(int(p.stem) for p in layout.samples_dir.glob("[0-9]*.json") if p.stem.isdigit())
@@ -233,7 +248,8 @@ def generate(cfg: Config, out: str | Path, progress: bool = True,
     todo = [i for i in indices if read_record(layout, i) is None]
     if todo and cfg.deform.sources.uses_bank:
         bake(spec, cfg.object.spec, cfg.object.mesh, progress)  # once; cached for every later run
-    params = {i: sample_params(i, cfg.generate.seed, cfg, spec, hdris) for i in todo}
+    photos = texture_photos(cfg)
+    params = {i: sample_params(i, cfg.generate.seed, cfg, spec, hdris, photos) for i in todo}
     views = len(cfg.camera.azimuth_quadrants)
     log.info(
         "generate: %d images (%d samples x %d cameras), %d samples to render, %d already done",

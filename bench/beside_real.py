@@ -1,0 +1,61 @@
+"""Preview sheet: synthetic images of a dataset's variants beside real photos, to judge them at thumbnail size.
+
+    .venv/bin/python bench/beside_real.py DATA --variant NAME [--variant NAME ...] [--real DIR] [--n 5]
+        [--label deformed] [--seed 0] [--out sheet.png]
+
+One row of ``--n`` real photos of ``--label`` (centre-cropped square, as a person frames them), then one row per
+variant (``black``, ``surface`` for the rendered surface scenes, or a composited variant's name) of as many
+images of the same label, drawn with ``--seed``. Without --real it uses ../shared/data/real_cans_dev.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from _util import SHARED
+
+from deformsim.dataset.contact_sheet import COLORS, grid
+from deformsim.dataset.images import open_rgb
+from deformsim.dataset.layout import Layout
+from deformsim.dataset.manifest import read_manifest
+from deformsim.dataset.real import real_table
+from deformsim.dataset.variants import variant_table
+
+
+def _square(img):
+    w, h = img.size
+    s = min(w, h)
+    return img.crop(((w - s) // 2, (h - s) // 2, (w - s) // 2 + s, (h - s) // 2 + s))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("data", type=Path)
+    ap.add_argument("--variant", action="append", required=True)
+    ap.add_argument("--real", type=Path, default=SHARED / "real_cans_dev")
+    ap.add_argument("--n", type=int, default=5)
+    ap.add_argument("--label", default="deformed", choices=["intact", "deformed"])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--tile", type=int, default=192)
+    ap.add_argument("--out", type=Path, default=Path("sheet.png"))
+    a = ap.parse_args()
+    real = real_table(a.real)
+    real = real[real["label"] == a.label].sample(n=a.n, random_state=a.seed)
+    images = [_square(open_rgb(p)) for p in real["path"]]
+    captions = [(f"real {a.label}", COLORS[a.label])] * a.n
+    for name in a.variant:
+        if name == "surface":
+            df = read_manifest(a.data)
+            df = df.assign(path=[str(Layout(a.data).root / p) for p in df["surface"]])
+        else:
+            df = variant_table(a.data, name)
+        df = df[df["label"] == a.label].sample(n=a.n, random_state=a.seed)
+        images += [open_rgb(p) for p in df["path"]]
+        captions += [(f"{name} {r.id}", COLORS[a.label]) for r in df.itertuples()]
+    grid(images, captions, tile=a.tile, cols=a.n).save(a.out)
+    print(a.out)
+
+
+if __name__ == "__main__":
+    main()

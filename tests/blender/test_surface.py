@@ -1,0 +1,79 @@
+"""render.surface: the part on a textured ground, rendered whole, beside the unchanged rgba render."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from deformsim.config import load_config
+from deformsim.dataset.layout import Layout, image_id
+from deformsim.generate.worker_client import WorkerProcess
+from deformsim.hdri import list_hdris
+from deformsim.sampling import draw_surface, sample_params
+from deformsim.spec.model import load_spec
+from tests.blender.conftest import TINY_RENDER
+
+pytestmark = pytest.mark.blender
+
+CAMERAS = [(20, 70), (200, 250)]
+RED = (200, 30, 30)
+
+
+@pytest.fixture(scope="module")
+def scenes(tmp_path_factory):
+    """One sample rendered by a worker without surfaces, and twice by one with surfaces and shadows: on wood and
+    on a texture photo (a plain red picture)."""
+    root = tmp_path_factory.mktemp("surface")
+    (root / "photos").mkdir()
+    Image.fromarray(np.full((32, 48, 3), RED, np.uint8)).save(root / "photos" / "red.png")
+    base = {**TINY_RENDER, "render.dense": False, "camera.azimuth_quadrants": CAMERAS}
+    surface = {"kinds": ["wood", "photo"], "photos": str(root / "photos")}
+    cfgs = {False: load_config("quick", base),
+            True: load_config("quick", {**base, "render.shadow": True, "render.surface": surface})}
+    p = dataclasses.replace(sample_params(0, 5, cfgs[True], load_spec(None), list_hdris(None)), pose_tilt=90.0)
+    kinds = {k: load_config("quick", {**base, "render.surface": {**surface, "kinds": [k]}}) for k in ("wood", "photo")}
+    wood = dataclasses.replace(p, surface=draw_surface(0, 5, kinds["wood"]))
+    photo = dataclasses.replace(p, index=1, surface=draw_surface(0, 5, kinds["photo"]))
+    out = {}
+    for on, cfg in cfgs.items():
+        layout = Layout(root / str(on))
+        w = WorkerProcess(root / f"{on}.log", threads=2)
+        try:
+            w.start({"config": cfg.model_dump(mode="json"), "spec_path": None, "out": str(layout.root)})
+            out[on] = (layout, [w.render(wood.to_dict())] + ([w.render(photo.to_dict())] if on else []))
+        finally:
+            w.close()
+    return out
+
+
+def _read(layout: Layout, kind: str, cam: int, sample: int = 0) -> np.ndarray:
+    return np.array(Image.open(layout.image(kind, image_id(sample, cam))))
+
+
+def test_reply_names_the_scene_images(scenes):
+    assert all(r["scene"] == ["shadow", "surface"] for r in scenes[True][1]), scenes[True][1]
+    assert "scene" not in scenes[False][1][0]
+
+
+def test_rgba_and_variants_unchanged_by_surface(scenes):
+    for kind in ("rgba", "black", "green"):
+        for c in range(len(CAMERAS)):
+            assert scenes[True][0].image(kind, image_id(0, c)).read_bytes() == \
+                scenes[False][0].image(kind, image_id(0, c)).read_bytes(), (kind, c)
+
+
+def test_surface_scene_shows_the_part_on_a_textured_ground(scenes):
+    layout = scenes[True][0]
+    for c in range(len(CAMERAS)):
+        scene, rgba = _read(layout, "surface", c).astype(float), _read(layout, "rgba", c)
+        assert scene.shape == rgba.shape[:2] + (3,)
+        ground = rgba[..., 3] == 0
+        assert scene[ground].mean() > 10  # lit ground, not the black camera background
+        assert scene[ground].std(axis=0).max() > 3  # a texture and shading, not a flat colour
+        part = rgba[..., 3] == 255
+        assert np.abs(scene[part] - rgba[part][:, :3]).mean() < 40  # the same part, lit alike (plus bounce light)
+        photo = _read(layout, "surface", c, sample=1).astype(float)[ground]
+        assert photo[:, 0].mean() > 1.5 * photo[:, 1].mean()  # the red photo lies on the ground

@@ -1,0 +1,70 @@
+"""Composite with rendered surface scenes (render.surface): a drawn share of the images shows the scene whole."""
+
+from __future__ import annotations
+
+import shutil
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+
+from deformsim.composite.stage import composite
+from deformsim.config import CompositeConfig
+from deformsim.dataset.layout import Layout
+from deformsim.errors import UserError
+
+
+def _with_surfaces(src, dst):
+    """A copy of the dataset at ``src`` with a made-up surface scene per image: the part over a checkerboard."""
+    shutil.copytree(src, dst, ignore=shutil.ignore_patterns("variants"))
+    layout = Layout(dst)
+    df = pd.read_parquet(layout.manifest)
+    paths = []
+    for row in df.itertuples():
+        rgba = cv2.imread(str(dst / row.rgba), cv2.IMREAD_UNCHANGED)
+        h, w = rgba.shape[:2]
+        board = ((np.indices((h, w)).sum(0) // 4) % 2 * 120 + 60).astype(np.float32)[..., None]
+        a = rgba[..., 3:4] / 255.0
+        scene = np.rint(rgba[..., :3] * a + board * (1 - a)).astype(np.uint8)
+        path = layout.image("surface", row.id)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(path), scene)
+        paths.append(layout.rel(path))
+    df.assign(surface=paths).to_parquet(layout.manifest, index=False)
+    return dst
+
+
+def test_surface_share_shows_the_scene_whole_and_leaves_the_rest(dataset, tmp_path):
+    scenes = _with_surfaces(dataset, tmp_path / "scenes")
+    plain = composite(scenes, CompositeConfig(workers=1), "p", seed=2, progress=False)
+    mixed = composite(scenes, CompositeConfig(workers=1, surface=0.5), "m", seed=2, progress=False)
+    m = pd.read_parquet(mixed / "manifest.parquet")
+    shown = m["background"] == "surface"
+    assert 0 < shown.sum() < len(m)  # a share, drawn per image
+    assert (m.loc[shown, "matte"] == "none").all()
+    for row in m.itertuples():
+        out = cv2.imread(str(mixed / "images" / f"{row.id}.png"))
+        if row.background == "surface":  # no framing, no flip: the scene itself
+            assert np.array_equal(out, cv2.imread(str(Layout(scenes).image("surface", row.id))))
+        else:  # the rest is exactly the composite without surfaces
+            assert np.array_equal(out, cv2.imread(str(plain / "images" / f"{row.id}.png")))
+
+
+def test_surface_scenes_are_framed_around_the_part(dataset, tmp_path):
+    scenes = _with_surfaces(dataset, tmp_path / "scenes")
+    v = composite(scenes, CompositeConfig(workers=1, surface=1.0, object_fill=(0.8, 0.8), fill_offset=0.0),
+                  "f", seed=0, progress=False)
+    m = pd.read_parquet(v / "manifest.parquet")
+    assert (m["background"] == "surface").all() and (m["frame_fill"] == 0.8).all()
+    for row in m.itertuples():
+        mask = cv2.imread(str(v / "mask" / f"{row.id}.png"), cv2.IMREAD_UNCHANGED)
+        ys, xs = np.nonzero(mask > 127)
+        side = max(xs.max() - xs.min() + 1, ys.max() - ys.min() + 1) / mask.shape[0]
+        assert side == pytest.approx(0.8, abs=0.06) or row.frame_side == min(mask.shape)  # clipped to the render
+
+
+def test_surface_share_needs_surface_scenes(dataset):
+    with pytest.raises(UserError, match="render.surface"):
+        composite(dataset, CompositeConfig(workers=1, surface=0.3), "x", seed=0, progress=False)
+    assert not (dataset / "variants" / "x").exists()
