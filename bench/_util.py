@@ -18,6 +18,14 @@ def rss_mb(pid: int) -> float:
     raise RuntimeError(f"no VmRSS for {pid}")
 
 
+def render_options(ap) -> None:
+    """The command-line options of the interleaved render benchmarks (dense, scene)."""
+    ap.add_argument("--states", type=int, default=4, help="timed samples (4 images each)")
+    ap.add_argument("--resolution", type=int, default=128)
+    ap.add_argument("--samples", type=int, default=16)
+    ap.add_argument("--threads", type=int, default=2)
+
+
 def interleaved_seconds(cfgs: dict, params: dict, threads: int) -> tuple[dict, int]:
     """Seconds per image of one worker per config in ``cfgs``, rendering ``params[key]`` (lists of equal length)
     in turn (sample j of every config, then j + 1), so machine load falls on all alike. Each first sample warms

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from _util import interleaved_seconds
+from _util import interleaved_seconds, render_options
 
 from deformsim.config import load_config
 from deformsim.hdri import list_hdris
@@ -21,10 +21,7 @@ from deformsim.spec.model import load_spec
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--states", type=int, default=4, help="timed samples (4 images each)")
-    ap.add_argument("--resolution", type=int, default=128)
-    ap.add_argument("--samples", type=int, default=16)
-    ap.add_argument("--threads", type=int, default=2)
+    render_options(ap)
     a = ap.parse_args()
     spec, hdris = load_spec(None), list_hdris(None)
     settings = {"render.resolution": a.resolution, "render.samples": a.samples}

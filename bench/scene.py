@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import argparse
 
-from _util import interleaved_seconds
+from _util import interleaved_seconds, render_options
 
 from deformsim.config import load_config
 from deformsim.hdri import list_hdris
@@ -26,10 +26,7 @@ SETTINGS = {"none": {}, "shadow": {"render.shadow": True}, "surface": {"render.s
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--states", type=int, default=4, help="timed samples (4 images each)")
-    ap.add_argument("--resolution", type=int, default=128)
-    ap.add_argument("--samples", type=int, default=16)
-    ap.add_argument("--threads", type=int, default=2)
+    render_options(ap)
     ap.add_argument("--dense", action="store_true", help="dense maps on in every worker (the quick preset's setting)")
     a = ap.parse_args()
     spec, hdris = load_spec(None), list_hdris(None)

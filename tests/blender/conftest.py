@@ -32,6 +32,18 @@ def run_blender(code: str, timeout: float = 300) -> dict:
     return json.loads(lines[-1])
 
 
+def worker_renders(log: Path, cfg, out: Path, params: list) -> list[dict]:
+    """Render ``params`` (SampleParams) in turn with one worker set up for ``cfg`` writing to ``out``; the replies."""
+    from deformsim.generate.worker_client import WorkerProcess
+
+    w = WorkerProcess(log, threads=2)
+    try:
+        w.start({"config": cfg.model_dump(mode="json"), "spec_path": None, "out": str(out)})
+        return [w.render(p.to_dict()) for p in params]
+    finally:
+        w.close()
+
+
 @pytest.fixture(scope="session")
 def tiny_config():
     from deformsim.config import load_config

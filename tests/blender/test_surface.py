@@ -10,11 +10,10 @@ from PIL import Image
 
 from deformsim.config import load_config
 from deformsim.dataset.layout import Layout, image_id
-from deformsim.generate.worker_client import WorkerProcess
 from deformsim.hdri import list_hdris
 from deformsim.sampling import draw_surface, sample_params
 from deformsim.spec.model import load_spec
-from tests.blender.conftest import TINY_RENDER
+from tests.blender.conftest import TINY_RENDER, worker_renders
 
 pytestmark = pytest.mark.blender
 
@@ -40,12 +39,7 @@ def scenes(tmp_path_factory):
     out = {}
     for on, cfg in cfgs.items():
         layout = Layout(root / str(on))
-        w = WorkerProcess(root / f"{on}.log", threads=2)
-        try:
-            w.start({"config": cfg.model_dump(mode="json"), "spec_path": None, "out": str(layout.root)})
-            out[on] = (layout, [w.render(wood.to_dict())] + ([w.render(photo.to_dict())] if on else []))
-        finally:
-            w.close()
+        out[on] = (layout, worker_renders(root / f"{on}.log", cfg, layout.root, [wood, photo] if on else [wood]))
     return out
 
 

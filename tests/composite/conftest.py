@@ -6,6 +6,7 @@ import shutil
 
 import cv2
 import numpy as np
+import pandas as pd
 import pytest
 
 
@@ -15,6 +16,24 @@ def dataset(tiny_dataset, tmp_path):
     out = tmp_path / "data"
     shutil.copytree(tiny_dataset, out, ignore=shutil.ignore_patterns("variants"))
     return out
+
+
+def with_images(src, dst, kind: str, make):
+    """A copy of the dataset at ``src`` in ``dst`` with one more image per render, ``make(rgba)`` (uint8 RGBA ->
+    image), in ``images/KIND/`` and a ``KIND`` manifest column, as ``render.shadow`` or ``render.surface`` add."""
+    from deformsim.dataset.layout import Layout
+
+    shutil.copytree(src, dst, ignore=shutil.ignore_patterns("variants"))
+    layout = Layout(dst)
+    df = pd.read_parquet(layout.manifest)
+    paths = []
+    for row in df.itertuples():
+        path = layout.image(kind, row.id)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(path), make(cv2.imread(str(dst / row.rgba), cv2.IMREAD_UNCHANGED)))
+        paths.append(layout.rel(path))
+    df.assign(**{kind: paths}).to_parquet(layout.manifest, index=False)
+    return dst
 
 
 def green_screen_photo(seed: int, size: int = 96, ss: int = 4) -> tuple[np.ndarray, np.ndarray]:

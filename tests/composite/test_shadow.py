@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import shutil
-
 import cv2
 import numpy as np
 import pandas as pd
@@ -11,23 +9,18 @@ import pandas as pd
 from deformsim.composite.stage import composite
 from deformsim.config import CompositeConfig
 from deformsim.dataset.layout import Layout
+from tests.composite.conftest import with_images
+
+
+def _ring(rgba):
+    alpha = rgba[..., 3]
+    ring = cv2.dilate((alpha > 0).astype(np.uint8), np.ones((9, 9), np.uint8)).astype(bool) & (alpha < 255)
+    return np.where(ring, 200, 0).astype(np.uint8)
 
 
 def _with_shadows(src, dst):
     """A copy of the dataset at ``src`` with a made-up shadow map per image: 200 in a ring around the part."""
-    shutil.copytree(src, dst, ignore=shutil.ignore_patterns("variants"))
-    layout = Layout(dst)
-    df = pd.read_parquet(layout.manifest)
-    paths = []
-    for row in df.itertuples():
-        alpha = cv2.imread(str(dst / row.rgba), cv2.IMREAD_UNCHANGED)[..., 3]
-        ring = cv2.dilate((alpha > 0).astype(np.uint8), np.ones((9, 9), np.uint8)).astype(bool) & (alpha < 255)
-        path = layout.image("shadow", row.id)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        cv2.imwrite(str(path), np.where(ring, 200, 0).astype(np.uint8))
-        paths.append(layout.rel(path))
-    df.assign(shadow=paths).to_parquet(layout.manifest, index=False)
-    return dst
+    return with_images(src, dst, "shadow", _ring)
 
 
 def _images(variant):

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import shutil
-
 import cv2
 import numpy as np
 import pandas as pd
@@ -13,26 +11,19 @@ from deformsim.composite.stage import composite
 from deformsim.config import CompositeConfig
 from deformsim.dataset.layout import Layout
 from deformsim.errors import UserError
+from tests.composite.conftest import with_images
+
+
+def _on_board(rgba):
+    h, w = rgba.shape[:2]
+    board = ((np.indices((h, w)).sum(0) // 4) % 2 * 120 + 60).astype(np.float32)[..., None]
+    a = rgba[..., 3:4] / 255.0
+    return np.rint(rgba[..., :3] * a + board * (1 - a)).astype(np.uint8)
 
 
 def _with_surfaces(src, dst):
     """A copy of the dataset at ``src`` with a made-up surface scene per image: the part over a checkerboard."""
-    shutil.copytree(src, dst, ignore=shutil.ignore_patterns("variants"))
-    layout = Layout(dst)
-    df = pd.read_parquet(layout.manifest)
-    paths = []
-    for row in df.itertuples():
-        rgba = cv2.imread(str(dst / row.rgba), cv2.IMREAD_UNCHANGED)
-        h, w = rgba.shape[:2]
-        board = ((np.indices((h, w)).sum(0) // 4) % 2 * 120 + 60).astype(np.float32)[..., None]
-        a = rgba[..., 3:4] / 255.0
-        scene = np.rint(rgba[..., :3] * a + board * (1 - a)).astype(np.uint8)
-        path = layout.image("surface", row.id)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        cv2.imwrite(str(path), scene)
-        paths.append(layout.rel(path))
-    df.assign(surface=paths).to_parquet(layout.manifest, index=False)
-    return dst
+    return with_images(src, dst, "surface", _on_board)
 
 
 def test_surface_share_shows_the_scene_whole_and_leaves_the_rest(dataset, tmp_path):
