@@ -156,3 +156,30 @@ def test_records_without_framing_fields_still_load(setup):
     d = sample_params(0, 4, cfg, spec, HDRIS).to_dict()
     d["cameras"] = [{k: c[k] for k in ("azimuth", "polar", "radius")} for c in d["cameras"]]
     assert SampleParams.from_dict(d) == sample_params(0, 4, cfg, spec, HDRIS)
+
+
+def test_surfaces_draw_from_a_stream_of_their_own(setup, tmp_path):
+    from PIL import Image
+
+    from deformsim.errors import UserError
+    from deformsim.sampling import SURFACE_COLOURS, surface_photos
+
+    cfg, spec = setup
+    for name in ("b.png", "a.jpg"):
+        Image.new("RGB", (8, 8)).save(tmp_path / name)
+    (tmp_path / "notes.txt").write_text("not a photo")
+    on = load_config("quick", {"render.surface": {"kinds": ["wood", "cloth", "photo"], "photos": str(tmp_path)}})
+    kinds = set()
+    for i in range(60):
+        a, b = sample_params(i, 2, cfg, spec, HDRIS), sample_params(i, 2, on, spec, HDRIS)
+        assert a.surface is None and b == SampleParams(**{**a.__dict__, "surface": b.surface})  # nothing else moved
+        s, c = b.surface, SURFACE_COLOURS[b.surface.kind]
+        assert c["value"][0] <= s.value <= c["value"][1] and 0.6 <= s.scale <= 1.6 and 0 <= s.rotation < 360
+        assert (s.photo in surface_photos(tmp_path)) == (s.kind == "photo")
+        assert SampleParams.from_dict(b.to_dict()) == b
+        kinds.add(s.kind)
+    assert kinds == {"wood", "cloth", "photo"}
+    assert [p.rsplit("/", 1)[1] for p in surface_photos(tmp_path)] == ["a.jpg", "b.png"]
+    (tmp_path / "a.jpg").unlink(), (tmp_path / "b.png").unlink()
+    with pytest.raises(UserError, match="no images"):
+        surface_photos(tmp_path)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 from deformsim.config import load_config
 from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, Layout, image_id
 from deformsim.dataset.manifest import read_record, rows_for, write_record
@@ -54,3 +56,21 @@ def test_framing_columns_only_for_the_options_that_are_on(tmp_path):
         cfg = load_config("quick", {"camera.azimuth_quadrants": quads, **extra})
         rows = rows_for(sample_params(3, 0, cfg, spec, hdris), Layout(tmp_path), [1.0, 1.0])
         assert set(rows[0]) - set(plain[0]) == cols and set(plain[0]) <= set(rows[0])
+
+
+def test_scene_images_and_the_drawn_surface_are_recorded_and_needed_for_resume(tmp_path):
+    cfg = load_config("quick", {"camera.azimuth_quadrants": [(20, 70), (200, 250)], "render.surface": {}})
+    layout, p = Layout(tmp_path), sample_params(3, 0, cfg, load_spec(None), list_hdris(None))
+    rows = rows_for(p, layout, [1.0, 1.0], scene=("shadow", "surface"))
+    assert rows[1]["surface"] == f"images/surface/{image_id(3, 1)}.png" and rows[0]["shadow"].startswith("images/shadow/")
+    assert json.loads(rows[0]["surface_params"])["kind"] == p.surface.kind
+    assert "surface_params" not in rows_for(_sample(), layout, [1.0, 1.0])[0]
+    write_record(layout, p, rows)
+    for c in range(2):
+        for kind in RENDER_KINDS + ("shadow", "surface"):
+            path = layout.image(kind, image_id(3, c))
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(b"png")
+    assert read_record(layout, 3) is not None
+    layout.image("surface", image_id(3, 0)).unlink()
+    assert read_record(layout, 3) is None

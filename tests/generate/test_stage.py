@@ -139,7 +139,9 @@ def test_changed_settings_on_an_existing_folder_fail_and_keep_it(tiny_dataset):
 def test_bad_input_fails_before_any_output(tmp_path):
     out = tmp_path / "never"
     for overrides, needle in [({"object.mesh": tmp_path / "missing.stl"}, "not found"),
-                              ({"lighting.hdri_dir": tmp_path}, "no .exr or .hdr")]:
+                              ({"lighting.hdri_dir": tmp_path}, "no .exr or .hdr"),
+                              ({"render.surface": {"kinds": ["photo"], "photos": str(tmp_path / "none")}},
+                               "render.surface.photos: .* is not a folder")]:
         with pytest.raises(UserError, match=needle):
             generate(load_config("quick", {**TINY, **overrides}), out, progress=False)
     assert not out.exists()
