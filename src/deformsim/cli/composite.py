@@ -55,4 +55,6 @@ def register(app: typer.Typer) -> None:
         df = pd.read_parquet(variant / "manifest.parquet")
         iou = df["matte_iou"].dropna()
         quality = f"; matte IoU vs exact alpha: mean {iou.mean():.4f}, min {iou.min():.4f}" if len(iou) else ""
-        console.print(f"[bold]{len(df)}[/] composites ({cfg.matte} matte) in {variant}{quality}")
+        scenes = int((df["background"] == "surface").sum()) if "background" in df.columns else 0
+        shown = f", {scenes} of them rendered surface scenes" if scenes else ""
+        console.print(f"[bold]{len(df)}[/] composites ({cfg.matte} matte{shown}) in {variant}{quality}")
