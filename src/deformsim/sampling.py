@@ -259,19 +259,20 @@ SURFACE_COLOURS = {
     "conveyor": {"hue": (0.0, 1.0), "saturation": (0.0, 0.15), "value": (0.03, 0.15), "roughness": (0.55, 0.85)},
     "photo": {"hue": (0.0, 0.0), "saturation": (0.0, 0.0), "value": (0.8, 1.2), "roughness": (0.4, 0.9)},
 }
-IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff", ".webp")
 
 
 def surface_photos(folder) -> list[str]:
     """The texture photos of ``render.surface.photos``, sorted (the draw picks by index); empty: a UserError."""
     from pathlib import Path
 
+    from deformsim.dataset.images import IMAGE_EXTS, images_in
+
     root = Path(folder)
     if not root.is_dir():
         raise UserError(f"render.surface.photos: {root} is not a folder")
-    found = sorted(str(p) for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
+    found = [str(p) for p in images_in(root)]
     if not found:
-        raise UserError(f"render.surface.photos: no images ({', '.join(IMAGE_SUFFIXES)}) in {root}")
+        raise UserError(f"render.surface.photos: no images ({', '.join(sorted(IMAGE_EXTS))}) in {root}")
     return found
 
 

@@ -138,10 +138,14 @@ def test_changed_settings_on_an_existing_folder_fail_and_keep_it(tiny_dataset):
 
 def test_bad_input_fails_before_any_output(tmp_path):
     out = tmp_path / "never"
+    (tmp_path / "bad").mkdir()
+    (tmp_path / "bad" / "broken.jpg").write_bytes(b"\xff\xd8 not a jpeg")
     for overrides, needle in [({"object.mesh": tmp_path / "missing.stl"}, "not found"),
                               ({"lighting.hdri_dir": tmp_path}, "no .exr or .hdr"),
                               ({"render.surface": {"kinds": ["photo"], "photos": str(tmp_path / "none")}},
-                               "render.surface.photos: .* is not a folder")]:
+                               "render.surface.photos: .* is not a folder"),
+                              ({"render.surface": {"kinds": ["photo"], "photos": str(tmp_path / "bad")}},
+                               "render.surface.photos: cannot read image .*broken.jpg")]:
         with pytest.raises(UserError, match=needle):
             generate(load_config("quick", {**TINY, **overrides}), out, progress=False)
     assert not out.exists()

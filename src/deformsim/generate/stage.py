@@ -101,6 +101,17 @@ def input_digests(cfg: Config, spec: Spec | None = None) -> dict:
     }
 
 
+def check_image(path: str, what: str) -> None:
+    """A :class:`UserError` naming ``path`` when it is not a readable image (Blender would fail on it mid-run)."""
+    from PIL import Image
+
+    try:
+        with Image.open(path) as im:
+            im.verify()
+    except Exception as exc:  # PIL raises many types for corrupt data
+        raise UserError(f"{what}: cannot read image {path} ({exc or type(exc).__name__})") from None
+
+
 def texture_photos(cfg: Config) -> list[str] | None:
     """The surface texture photos the config draws from (``render.surface`` with kind photo), else None."""
     s = cfg.render.surface
@@ -142,7 +153,8 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
         raise UserError(f"deform.sources uses the simulated bank, but spec '{spec.name}' declares no simulation "
                         "scenarios (set deform.sources.bank and .both to 0, or add simulation: to the spec)")
     hdris = list_hdris(cfg.lighting.hdri_dir)
-    texture_photos(cfg)
+    for photo in texture_photos(cfg) or ():
+        check_image(photo, "render.surface.photos")
     conflict = existing_dataset(cfg, out, spec)
     if conflict is not None and not overwrite:
         raise UserError(f"{out} {conflict}")
