@@ -75,3 +75,12 @@ def test_camera_framing_is_off_by_default_and_lens_takes_a_range():
     assert (cam.fill, cam.offset, cam.partial, cam.fstop, cam.lens_mm, cam.framing) == (None, 0, 0, None, 50.0, False)
     cam = load_config("quick", {"camera.lens_mm": [35, 85]}).camera
     assert cam.lens_mm == (35.0, 85.0) and cam.lens_fixed == 60.0 and cam.framing
+
+
+def test_scene_kinds_are_the_layouts_in_render_order():
+    from deformsim.config import RenderConfig
+    from deformsim.dataset.layout import SCENE_KINDS
+
+    assert RenderConfig().scene_kinds == ()
+    assert RenderConfig(shadow=True, surface={}).scene_kinds == SCENE_KINDS
+    assert RenderConfig(surface={"kinds": ["cloth"]}).scene_kinds == ("surface",)

@@ -318,6 +318,11 @@ class RenderConfig(_Model):
         "None", description="contrast look on top of the view transform (Punchy: AgX only)"
     )
 
+    @property
+    def scene_kinds(self) -> tuple[str, ...]:
+        """The extra images each render writes after the part's own (dataset.layout.SCENE_KINDS), in order."""
+        return tuple(k for k, on in (("shadow", self.shadow), ("surface", self.surface is not None)) if on)
+
     @model_validator(mode="after")
     def _look(self) -> "RenderConfig":
         if self.look == "Punchy" and self.view_transform != "AgX":

@@ -28,7 +28,7 @@ from deformsim.blender.pose import set_pose
 from deformsim.blender.rig import Rig
 from deformsim.blender.world import World
 from deformsim.config import Config
-from deformsim.dataset.layout import SHADOW_KIND, SURFACE_KIND, Layout, image_id
+from deformsim.dataset.layout import SHADOW_KIND, Layout, image_id
 from deformsim.sampling import SampleParams
 from deformsim.spec.model import Spec
 
@@ -151,7 +151,7 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[
             _save(layout.image(kind, iid), img)
         seconds.append(t)
     # after every other image of the sample: the last of these passes resets the Cycles session (blender.shadow)
-    passes = [k for k, on in ((SHADOW_KIND, ctx.cfg.render.shadow), (SURFACE_KIND, ctx.cfg.render.surface)) if on]
+    passes = ctx.cfg.render.scene_kinds
     for kind in passes:
         for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
             cams.place(cam, cp, target, ctx.camera_scale)

@@ -114,9 +114,8 @@ def render(ctx, layout, params: dict) -> dict:
     bpy.data.orphans_purge(do_local_ids=True, do_linked_ids=True, do_recursive=True)
     pose = rest_columns(ctx.rest) if ctx.cfg.pose.mode == "drop" else None
     reply = {"done": p.index, "render_seconds": seconds, "dense": dense, "pose": pose}
-    scene = [kind for kind, on in (("shadow", ctx.cfg.render.shadow), ("surface", ctx.cfg.render.surface)) if on]
-    if scene:  # only then, so that the reply (and the manifest) stays as it was without them
-        reply["scene"] = scene
+    if ctx.cfg.render.scene_kinds:  # only then, so that the reply (and the manifest) stays as it was without them
+        reply["scene"] = list(ctx.cfg.render.scene_kinds)
     return reply
 
 
