@@ -71,3 +71,25 @@ def test_surface_scene_shows_the_part_on_a_textured_ground(scenes):
         assert np.abs(scene[part] - rgba[part][:, :3]).mean() < 40  # the same part, lit alike (plus bounce light)
         photo = _read(layout, "surface", c, sample=1).astype(float)[ground]
         assert photo[:, 0].mean() > 1.5 * photo[:, 1].mean()  # the red photo lies on the ground
+
+
+def test_every_procedural_kind_renders_its_own_ground(tmp_path):
+    kinds = ["wood", "paper", "concrete", "metal", "cloth", "conveyor"]
+    base = {**TINY_RENDER, "render.resolution": 32, "render.samples": 2, "render.dense": False,
+            "camera.azimuth_quadrants": [(20, 70)]}
+    cfg = load_config("quick", {**base, "render.surface": {}})
+    spec, hdris = load_spec(None), list_hdris(None)
+    params = [dataclasses.replace(sample_params(0, 1, cfg, spec, hdris), index=i,
+                                  surface=draw_surface(0, 1, load_config("quick", {**base, "render.surface": {"kinds": [k]}})))
+              for i, k in enumerate(kinds)]
+    replies = worker_renders(tmp_path / "w.log", cfg, tmp_path, params)
+    assert all("done" in r for r in replies), replies
+    layout = Layout(tmp_path)
+    grounds = []
+    for i in range(len(kinds)):
+        ground = _read(layout, "rgba", 0, sample=i)[..., 3] == 0
+        grounds.append(_read(layout, "surface", 0, sample=i).astype(float)[ground].mean(axis=0))
+    for i in range(len(kinds)):
+        for j in range(i):
+            assert np.abs(grounds[i] - grounds[j]).max() > 2, (kinds[i], kinds[j])  # each kind looks its own
+    assert grounds[kinds.index("paper")].mean() > grounds[kinds.index("conveyor")].mean() + 30  # white paper, black belt
