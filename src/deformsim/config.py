@@ -62,9 +62,7 @@ class CameraConfig(_Model):
     @classmethod
     def _lens(cls, v: float | Range) -> float | Range:
         if isinstance(v, tuple):
-            check_range(v, name="lens_mm")
-            if v[0] <= 1:
-                raise ValueError(f"lens_mm range {list(v)} must be above 1 mm")
+            check_range(v, above=1, name="lens_mm")
         elif v <= 1:
             raise ValueError(f"lens_mm {v} must be above 1 mm")
         return v
@@ -72,16 +70,12 @@ class CameraConfig(_Model):
     @field_validator("fill")
     @classmethod
     def _fill(cls, v: Range | None) -> Range | None:
-        if v is not None and (check_range(v, hi=1, name="fill")[0] <= 0):
-            raise ValueError(f"fill range {list(v)} must be above 0 (fractions of the frame in (0, 1])")
-        return v
+        return v if v is None else check_range(v, hi=1, above=0, name="fill")
 
     @field_validator("fstop")
     @classmethod
     def _fstop(cls, v: Range | None) -> Range | None:
-        if v is not None and (check_range(v, name="fstop")[0] <= 0):
-            raise ValueError(f"fstop range {list(v)} must be positive")
-        return v
+        return v if v is None else check_range(v, above=0, name="fstop")
 
     @property
     def lens_fixed(self) -> float:
@@ -102,10 +96,7 @@ class CameraConfig(_Model):
     @field_validator("radius")
     @classmethod
     def _radius(cls, v: Range) -> Range:
-        check_range(v, 0)
-        if v[0] <= 0:
-            raise ValueError("camera radius must be positive")
-        return v
+        return check_range(v, above=0, name="camera radius")
 
     @field_validator("azimuth_quadrants")
     @classmethod
@@ -254,9 +245,7 @@ class SurfaceConfig(_Model):
     @field_validator("scale")
     @classmethod
     def _scale(cls, v: Range) -> Range:
-        if v[0] <= 0:
-            raise ValueError(f"scale range {list(v)} must be positive")
-        return check_range(v, name="scale")
+        return check_range(v, above=0, name="scale")
 
     @model_validator(mode="after")
     def _photos(self) -> "SurfaceConfig":
@@ -411,9 +400,7 @@ class CompositeConfig(_Model):
     @field_validator("object_fill")
     @classmethod
     def _fill(cls, v: Range | None) -> Range | None:
-        if v is not None and (v[0] <= 0 or v[1] > 1):
-            raise ValueError(f"object_fill {list(v)} must lie in (0, 1]")
-        return v if v is None else check_range(v)
+        return v if v is None else check_range(v, hi=1, above=0, name="object_fill")
 
     @field_validator("scale_jitter")
     @classmethod

@@ -18,14 +18,18 @@ class StrictModel(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-def check_range(v: Range, lo: float | None = None, hi: float | None = None, name: str = "") -> Range:
-    """``v`` unchanged, or a ValueError naming the range when it is empty or leaves [lo, hi]."""
+def check_range(v: Range, lo: float | None = None, hi: float | None = None, name: str = "",
+                above: float | None = None) -> Range:
+    """``v`` unchanged, or a ValueError naming the range when it is empty, leaves [lo, hi] or does not stay
+    strictly above ``above`` (a size or ratio that must be positive)."""
     a, b = v
     what = f"{name} range {list(v)}".strip()
     if a > b:
         raise ValueError(f"{what} is empty (min > max)")
     if lo is not None and a < lo:
         raise ValueError(f"{what} is negative" if lo == 0 else f"{what} goes below {lo}")
+    if above is not None and a <= above:
+        raise ValueError(f"{what} must be above {above}")
     if hi is not None and b > hi:
         raise ValueError(f"{what} goes above {hi}")
     return v
