@@ -228,19 +228,9 @@ def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | 
     dense = read_maps(maps, (h, w)) if maps else None
     shade = read_shadow(shadow, (h, w)) if shadow else None
     bg, info = _background(rng, cfg, h, w, photo)
-    m = None
-    if cfg.object_fill is not None:
-        m, frame = frame_matrix(alpha, cfg.object_fill, cfg.fill_offset, rng)
-        fg, alpha = warp(fg, m), np.clip(warp(alpha, m), 0, 1)
-        shade = np.clip(warp(shade, m), 0, 1) if shade is not None else None
-        info.update(frame)
-    flip = part_flip(_STATE["seed"], iid, cfg.flip_part)
-    if flip:
-        fg, alpha = fg[:, ::-1], alpha[:, ::-1]
-        shade = shade[:, ::-1] if shade is not None else None
-    info["part_flip"] = flip
-    if dense:
-        info.update(write_maps(move_maps(dense, m, flip), _STATE["maps_out"], _STATE["maps_prefix"], iid))
+    fg, alpha, shade = _move_part(iid, alpha, [fg, alpha, shade], dense, rng, cfg, info)
+    alpha = np.clip(alpha, 0, 1)
+    shade = np.clip(shade, 0, 1) if shade is not None else None
     bg = bg.astype(np.float32)
     if shade is not None:
         strength = shadow_strength(_STATE["seed"], iid, cfg.shadow_strength)
@@ -261,17 +251,26 @@ def _surface_one(iid: str, scene: str, exact: str, maps: dict[str, str] | None, 
         raise UserError(f"surface scene {scene} is {img.shape[1]}x{img.shape[0]}, its render {w}x{h}")
     dense = read_maps(maps, (h, w)) if maps else None
     info: dict = {"background": SURFACE_KIND}
+    (img,) = _move_part(iid, alpha, [img], dense, rng, cfg, info)
+    return _finish(iid, img, rng, cfg, {"matte": "none", **info}, float("nan"))
+
+
+def _move_part(iid: str, alpha: np.ndarray, layers: list, dense: dict | None, rng: np.random.Generator,
+               cfg: CompositeConfig, info: dict) -> list:
+    """``layers`` (images or None) framed around the part whose alpha is ``alpha`` (``composite.object_fill``) and
+    mirrored with it (``flip_part``); the dense maps are moved alike and written; both are recorded in ``info``."""
     m = None
     if cfg.object_fill is not None:
         m, frame = frame_matrix(alpha, cfg.object_fill, cfg.fill_offset, rng)
-        img = warp(img, m)
+        layers = [warp(x, m) if x is not None else None for x in layers]
         info.update(frame)
     flip = part_flip(_STATE["seed"], iid, cfg.flip_part)
-    img = img[:, ::-1] if flip else img
+    if flip:
+        layers = [x[:, ::-1] if x is not None else None for x in layers]
     info["part_flip"] = flip
     if dense:
         info.update(write_maps(move_maps(dense, m, flip), _STATE["maps_out"], _STATE["maps_prefix"], iid))
-    return _finish(iid, img, rng, cfg, {"matte": "none", **info}, float("nan"))
+    return layers
 
 
 def _finish(iid: str, img: np.ndarray, rng: np.random.Generator, cfg: CompositeConfig, info: dict,
