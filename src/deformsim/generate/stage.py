@@ -27,6 +27,7 @@ from deformsim.atomic import write_json, write_text
 from deformsim.bank.stage import bake
 from deformsim.bank.store import bank_key
 from deformsim.config import Config, dump_config
+from deformsim.dataset.images import open_rgb
 from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import consolidate, read_record
 from deformsim.errors import ResourceError, UserError
@@ -101,17 +102,6 @@ def input_digests(cfg: Config, spec: Spec | None = None) -> dict:
     }
 
 
-def check_image(path: str, what: str) -> None:
-    """A :class:`UserError` naming ``path`` when it is not a readable image (Blender would fail on it mid-run)."""
-    from PIL import Image
-
-    try:
-        with Image.open(path) as im:
-            im.verify()
-    except Exception as exc:  # PIL raises many types for corrupt data
-        raise UserError(f"{what}: cannot read image {path} ({exc or type(exc).__name__})") from None
-
-
 def texture_photos(cfg: Config) -> list[str] | None:
     """The surface texture photos the config draws from (``render.surface`` with kind photo), else None."""
     s = cfg.render.surface
@@ -154,7 +144,10 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
                         "scenarios (set deform.sources.bank and .both to 0, or add simulation: to the spec)")
     hdris = list_hdris(cfg.lighting.hdri_dir)
     for photo in texture_photos(cfg) or ():
-        check_image(photo, "render.surface.photos")
+        try:
+            open_rgb(photo, min_size=(1, 1))  # Blender would fail on it mid-run
+        except UserError as exc:
+            raise UserError(f"render.surface.photos: {exc}") from None
     conflict = existing_dataset(cfg, out, spec)
     if conflict is not None and not overwrite:
         raise UserError(f"{out} {conflict}")
