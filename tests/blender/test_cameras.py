@@ -39,7 +39,7 @@ for index in range(3):
     target = apply_state(ctx, p)
     pts = cams.world_vertices(ctx.obj)
     for cam, cp in zip(ctx.cameras, p.cameras):
-        cams.place(cam, cp, target, ctx.camera_scale)
+        cams.place(cam, cp, target, ctx.camera_scale, ctx.obj)
         bpy.context.view_layer.update()
         uv = np.array([tuple(world_to_camera_view(ctx.scene, cam, Vector(v)))[:2] for v in pts]) - 0.5
         d = cam.data
@@ -49,7 +49,7 @@ for index in range(3):
 # the paper's camera on a reused camera object: config lens, no shift, no DOF, at the drawn radius
 plain = CameraParams(azimuth=30.0, polar=60.0, radius=0.4)
 cam = ctx.cameras[0]
-cams.place(cam, plain, ctx.target, ctx.camera_scale)
+cams.place(cam, plain, ctx.target, ctx.camera_scale, ctx.obj)
 want = cams.camera_location(plain, ctx.target, ctx.camera_scale)
 out["plain"] = {"lens": cam.data.lens, "shift": [cam.data.shift_x, cam.data.shift_y], "dof": cam.data.dof.use_dof,
                 "at": (cam.location - want).length}

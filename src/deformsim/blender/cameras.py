@@ -19,12 +19,10 @@ from mathutils import Vector
 from deformsim.sampling import CameraParams
 
 LENS_KEY = "deformsim_lens"  # custom property of each camera's data: the config's lens (mm)
-_SUBJECT: dict[str, object] = {}  # camera object name -> the part it frames (make_cameras)
 
 
-def make_cameras(scene, n: int, lens_mm: float, camera_scale: float = 1.0, subject=None) -> list:
-    """Create ``n`` camera objects (placed later by :func:`place`); ``subject``: the part they frame with
-    ``camera.fill``/``offset``/``partial`` (so every render pass that places a camera frames it the same)."""
+def make_cameras(scene, n: int, lens_mm: float, camera_scale: float = 1.0) -> list:
+    """Create ``n`` camera objects (placed later by :func:`place`)."""
     cams = []
     for i in range(n):
         data = bpy.data.cameras.new(f"Camera{i}")
@@ -35,10 +33,6 @@ def make_cameras(scene, n: int, lens_mm: float, camera_scale: float = 1.0, subje
         cam = bpy.data.objects.new(f"Camera{i}", data)
         scene.collection.objects.link(cam)
         cams.append(cam)
-        if subject is not None:
-            _SUBJECT[cam.name] = subject
-        else:
-            _SUBJECT.pop(cam.name, None)
     return cams
 
 
@@ -47,18 +41,15 @@ def camera_location(p: CameraParams, target, camera_scale: float = 1.0) -> Vecto
     return Vector(target) + _direction(p) * (p.radius * camera_scale)
 
 
-def place(cam, p: CameraParams, target, camera_scale: float = 1.0, obj=None) -> None:
+def place(cam, p: CameraParams, target, camera_scale: float, obj) -> None:
     """Move ``cam`` to ``p`` and aim its -Z axis at ``target`` with +Y up; set its lens, lens shift and depth of
     field from ``p`` (the config's lens, no shift, no DOF where ``p`` draws none). A framed ``p``
-    (:attr:`CameraParams.framed`) is placed by the projected box of ``obj`` (default: the part given to
-    :func:`make_cameras`) as it is evaluated now, see :func:`frame`."""
+    (:attr:`CameraParams.framed`) is placed by the projected box of the part ``obj`` as it is evaluated now, see
+    :func:`frame`."""
     data = cam.data
     _set(data, "lens", p.lens if p.lens > 0 else data.get(LENS_KEY, data.lens))
     shift = (0.0, 0.0)
     if p.framed:
-        obj = obj if obj is not None else _SUBJECT.get(cam.name)
-        if obj is None:
-            raise ValueError(f"{cam.name}: camera.fill/offset/partial need the part (make_cameras(subject=...))")
         distance, shift = frame(world_vertices(obj), p, target, camera_scale, data.lens, data.sensor_width)
         cam.location = Vector(target) + _direction(p) * distance
     else:

@@ -131,7 +131,7 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[
             ctx.ground_plane = surface.make_surface(scene, ctx.camera_scale)
         surface.set_surface(ctx.ground_plane, ctx.obj, target, p.surface, ctx.camera_scale)
     for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
-        cams.place(cam, cp, target, ctx.camera_scale)
+        cams.place(cam, cp, target, ctx.camera_scale, ctx.obj)
         scene.camera = cam
         iid = image_id(p.index, c)
         rgba, t = _render_to_array(scene, layout.image("rgba", iid))
@@ -154,7 +154,7 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> tuple[
     passes = ctx.cfg.render.scene_kinds
     for kind in passes:
         for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
-            cams.place(cam, cp, target, ctx.camera_scale)
+            cams.place(cam, cp, target, ctx.camera_scale, ctx.obj)
             scene.camera = cam
             path = layout.image(kind, image_id(p.index, c))
             last = kind == passes[-1] and c == len(ctx.cameras) - 1

@@ -78,7 +78,7 @@ def setup(msg: dict):
     pivot = make_pivot(scene, (lo + hi) / 2, [obj, rig.lattice])
     world = World(scene, cfg.lighting.hdri_dir)
     make_lights(scene, cfg.lighting.area_lights.count[1])
-    cameras = make_cameras(scene, len(cfg.camera.azimuth_quadrants), cfg.camera.lens_fixed, camera_scale, subject=obj)
+    cameras = make_cameras(scene, len(cfg.camera.azimuth_quadrants), cfg.camera.lens_fixed, camera_scale)
     device = scn.configure_cycles(scene, cfg.render, int(msg.get("threads") or cfg.render.threads))
     ctx = RenderContext(
         cfg=cfg,
