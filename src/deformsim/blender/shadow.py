@@ -16,6 +16,7 @@ The plane is seen from above only (cameras with polar angle < 90 degrees): from 
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
 
 import bpy
@@ -26,23 +27,30 @@ PLANE_SIZE = 40.0  # m per unit of camera scale: far past the frame at every cam
 FLOOR = 12 / 255  # shadow opacity below this is sampling noise of the catcher (measured up to ~8/255 at 16 spp)
 
 
-def make_catcher(scene, camera_scale: float = 1.0):
-    """The hidden shadow-catcher plane (grey diffuse), linked to ``scene``; built once per worker."""
-    mesh = bpy.data.meshes.new(CATCHER)
+def make_plane(scene, name: str, camera_scale: float = 1.0):
+    """A hidden square ground plane named ``name``, :data:`PLANE_SIZE` times ``camera_scale`` across, linked to
+    ``scene`` (the shadow catcher and the rendered surface, :mod:`deformsim.blender.surface`)."""
+    mesh = bpy.data.meshes.new(name)
     half = PLANE_SIZE * camera_scale / 2
     mesh.from_pydata([(-half, -half, 0), (half, -half, 0), (half, half, 0), (-half, half, 0)], [], [(0, 1, 2, 3)])
     mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    scene.collection.objects.link(obj)
+    obj.hide_render = True
+    return obj
+
+
+def make_catcher(scene, camera_scale: float = 1.0):
+    """The hidden shadow-catcher plane (grey diffuse), linked to ``scene``; built once per worker."""
+    obj = make_plane(scene, CATCHER, camera_scale)
     mat = bpy.data.materials.new(CATCHER)
     mat.use_nodes = True
     bsdf = mat.node_tree.nodes.get("Principled BSDF")
     if bsdf is not None:
         bsdf.inputs["Base Color"].default_value = (0.5, 0.5, 0.5, 1.0)
         bsdf.inputs["Roughness"].default_value = 1.0
-    mesh.materials.append(mat)
-    obj = bpy.data.objects.new(CATCHER, mesh)
-    scene.collection.objects.link(obj)
+    obj.data.materials.append(mat)
     obj.is_shadow_catcher = True
-    obj.hide_render = True
     return obj
 
 
@@ -60,21 +68,33 @@ def place(catcher, obj, target: tuple[float, float, float]) -> None:
     catcher.location = (target[0], target[1], lowest_point(obj))
 
 
-def render_alpha(scene, catcher, obj, render_to_array, target: Path, last: bool = True) -> tuple[np.ndarray, float]:
-    """Render the shadow pass of the scene's camera (plane shown, part held out); return (alpha uint8, seconds).
+@contextmanager
+def plane_shown(scene, plane, last: bool):
+    """``plane`` shown for one extra render pass after the sample's own images, hidden again afterwards.
 
-    ``last``: the sample's last shadow pass. A Cycles session that has rendered a shadow catcher keeps rendering
+    ``last``: the sample's last extra pass. A Cycles session that has rendered a shadow catcher keeps rendering
     the part's edges differently (some alpha and colour of edge pixels change, even with the catcher hidden or
     removed), so the last pass runs without persistent data: the session is freed and the next ordinary render
-    starts a fresh one, byte-identical to a render without shadows."""
+    starts a fresh one, byte-identical to a render without the pass."""
     render = scene.render
-    catcher.hide_render, obj.is_holdout = False, True
+    plane.hide_render = False
     render.use_persistent_data = not last
     try:
-        pixels, seconds = render_to_array(scene, target)
+        yield
     finally:
-        catcher.hide_render, obj.is_holdout = True, False
+        plane.hide_render = True
         render.use_persistent_data = True
+
+
+def render_alpha(scene, catcher, obj, render_to_array, target: Path, last: bool = True) -> tuple[np.ndarray, float]:
+    """Render the shadow pass of the scene's camera (plane shown, part held out); return (alpha uint8, seconds);
+    ``last``: see :func:`plane_shown`."""
+    obj.is_holdout = True
+    try:
+        with plane_shown(scene, catcher, last):
+            pixels, seconds = render_to_array(scene, target)
+    finally:
+        obj.is_holdout = False
     return pixels[..., 3], seconds
 
 

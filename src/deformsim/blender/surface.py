@@ -23,7 +23,7 @@ import math
 
 import bpy
 
-from deformsim.blender.shadow import PLANE_SIZE, lowest_point
+from deformsim.blender.shadow import lowest_point, make_plane, plane_shown
 
 SURFACE = "DeformsimSurface"
 PHOTO_TILE = 0.6  # m: the size one texture photo covers on the ground at scale 1 (a table top's width)
@@ -33,14 +33,7 @@ CONTRAST = {"wood": 0.55, "paper": 0.08, "concrete": 0.45, "metal": 0.25, "cloth
 
 def make_surface(scene, camera_scale: float = 1.0):
     """The hidden ground plane, linked to ``scene``; its materials are built on first use (:func:`set_surface`)."""
-    mesh = bpy.data.meshes.new(SURFACE)
-    half = PLANE_SIZE * camera_scale / 2
-    mesh.from_pydata([(-half, -half, 0), (half, -half, 0), (half, half, 0), (-half, half, 0)], [], [(0, 1, 2, 3)])
-    mesh.update()
-    obj = bpy.data.objects.new(SURFACE, mesh)
-    scene.collection.objects.link(obj)
-    obj.hide_render = True
-    return obj
+    return make_plane(scene, SURFACE, camera_scale)
 
 
 def set_surface(plane, obj, target, p, camera_scale: float = 1.0) -> None:
@@ -70,18 +63,15 @@ def set_surface(plane, obj, target, p, camera_scale: float = 1.0) -> None:
 def render_scene(scene, plane, world, render_to_array, target, last: bool = True):
     """Render the surface scene of the scene's camera (plane shown, HDRI seen beyond it); return (RGB, seconds).
 
-    ``last``: the sample's last surface pass, rendered without persistent data so that the next ordinary render
-    starts a fresh Cycles session, as after a shadow pass (:func:`deformsim.blender.shadow.render_alpha`)."""
-    render = scene.render
-    plane.hide_render, render.film_transparent = False, False
+    ``last``: see :func:`deformsim.blender.shadow.plane_shown`."""
+    scene.render.film_transparent = False
     world.camera_sees_hdri(True)
-    render.use_persistent_data = not last
     try:
-        pixels, seconds = render_to_array(scene, target)
+        with plane_shown(scene, plane, last):
+            pixels, seconds = render_to_array(scene, target)
     finally:
-        plane.hide_render, render.film_transparent = True, True
+        scene.render.film_transparent = True
         world.camera_sees_hdri(False)
-        render.use_persistent_data = True
     return pixels[..., :3], seconds
 
 
