@@ -14,6 +14,7 @@ import argparse
 from pathlib import Path
 
 from _util import SHARED
+from PIL import ImageOps
 
 from deformsim.dataset.contact_sheet import COLORS, grid
 from deformsim.dataset.images import open_rgb
@@ -21,12 +22,6 @@ from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import read_manifest
 from deformsim.dataset.real import real_table
 from deformsim.dataset.variants import variant_table
-
-
-def _square(img):
-    w, h = img.size
-    s = min(w, h)
-    return img.crop(((w - s) // 2, (h - s) // 2, (w - s) // 2 + s, (h - s) // 2 + s))
 
 
 def main() -> None:
@@ -42,7 +37,7 @@ def main() -> None:
     a = ap.parse_args()
     real = real_table(a.real)
     real = real[real["label"] == a.label].sample(n=a.n, random_state=a.seed)
-    images = [_square(open_rgb(p)) for p in real["path"]]
+    images = [ImageOps.fit(open_rgb(p), (a.tile, a.tile)) for p in real["path"]]  # centre-cropped square
     captions = [(f"real {a.label}", COLORS[a.label])] * a.n
     for name in a.variant:
         if name == "surface":
