@@ -22,6 +22,8 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from deformsim.blender.cameras import world_vertices
+
 CATCHER = "DeformsimShadowCatcher"
 PLANE_SIZE = 40.0  # m per unit of camera scale: far past the frame at every camera radius and lens
 FLOOR = 12 / 255  # shadow opacity below this is sampling noise of the catcher (measured up to ~8/255 at 16 spp)
@@ -56,11 +58,7 @@ def make_catcher(scene, camera_scale: float = 1.0):
 
 def lowest_point(obj) -> float:
     """World z of the lowest vertex of ``obj`` as evaluated now (shape keys, lattice, pose)."""
-    ev = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    co = np.empty(len(ev.data.vertices) * 3, dtype=np.float64)
-    ev.data.vertices.foreach_get("co", co)
-    mw = np.array(ev.matrix_world)
-    return float((co.reshape(-1, 3) @ mw[2, :3] + mw[2, 3]).min())
+    return float(world_vertices(obj)[:, 2].min())
 
 
 def place(catcher, obj, target: tuple[float, float, float]) -> None:
