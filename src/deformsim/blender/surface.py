@@ -23,7 +23,7 @@ import math
 
 import bpy
 
-from deformsim.blender.shadow import lowest_point, make_plane, plane_shown
+from deformsim.blender.shadow import make_plane, place, plane_shown
 
 SURFACE = "DeformsimSurface"
 PHOTO_TILE = 0.6  # m: the size one texture photo covers on the ground at scale 1 (a table top's width)
@@ -38,7 +38,7 @@ def make_surface(scene, camera_scale: float = 1.0):
 
 def set_surface(plane, obj, target, p, camera_scale: float = 1.0) -> None:
     """Put ``plane`` under the part's current lowest point and give it sample surface ``p``."""
-    plane.location = (target[0], target[1], lowest_point(obj))
+    place(plane, obj, target)
     mat = _material(p.kind)
     nodes = mat.node_tree.nodes
     size = PHOTO_TILE if p.kind == "photo" else 1.0
