@@ -78,7 +78,7 @@ def render(name):
     k, d = states[name]
     apply_state(ctx, dataclasses.replace(base, keys=k, displacement=d, seal=0.0, tab=0.0, design=design))
     cam = ctx.cameras[0]
-    cams.place(cam, dataclasses.replace(base.cameras[0], radius=0.2), ctx.target, ctx.camera_scale)
+    cams.place(cam, dataclasses.replace(base.cameras[0], radius=0.2), ctx.target, ctx.camera_scale, ctx.obj)
     ctx.scene.camera = cam
     return _render_to_array(ctx.scene, tmp / f"{name}.png")[0].astype(float)
 
