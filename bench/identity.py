@@ -29,6 +29,7 @@ from deformsim import identity
 from deformsim.atomic import write_json, write_text
 from deformsim.config import dump_config, load_config
 from deformsim.dataset.layout import Layout
+from deformsim.generate import identity as gen_identity
 from deformsim.generate import stage as gen_stage
 
 
@@ -41,7 +42,7 @@ def stub_stages() -> None:
     def generate(cfg, data, progress=True, prepared=None, overwrite=False):
         layout = Layout(data)
         data.mkdir(parents=True, exist_ok=True)
-        write_json(layout.inputs, {"kind": "dataset", "inputs": gen_stage.input_digests(cfg), "files": {}})
+        write_json(layout.inputs, {"kind": "dataset", "inputs": gen_identity.input_digests(cfg), "files": {}})
         write_text(layout.config, dump_config(cfg))
         layout.manifest.write_bytes(b"")
 
@@ -83,10 +84,12 @@ class HashClock:
 def hashing_seconds(cfg, out: Path, real: Path | None, repeat: int) -> tuple[float, list[str]]:
     """Median time a cached in-process run spends hashing (digests computed afresh each time)."""
     from deformsim import pipeline
+    from deformsim.report import stage as report_stage
 
     clock = HashClock()
-    clock.wrap(gen_stage, "input_digests")
+    clock.wrap(gen_identity, "input_digests")
     clock.wrap(pipeline, "files_digest")
+    clock.wrap(report_stage, "files_digest")
     times, skipped = [], []
     for _ in range(repeat):
         identity._MEMO.clear()

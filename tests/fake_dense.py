@@ -1,4 +1,4 @@
-"""A small dataset in the dense ground-truth format of issue 14, written without Blender (for fast tests).
+"""A small dataset in the dense ground-truth format, written without Blender (for fast tests).
 
 Each image shows a flat-coloured part that is not left-right symmetric (a body with a tab on its right); deformed
 samples have a dent on the part's right side. Sample 2's camera 1 sees no part at all.

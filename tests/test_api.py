@@ -1,4 +1,4 @@
-"""The Python API: the README's example runs as written, and Engine validates its config."""
+"""The Python API: the README's example runs as written; Engine validates its config and checks inputs first."""
 
 from __future__ import annotations
 
@@ -36,3 +36,27 @@ def test_engine_takes_a_config_object_with_overrides():
 def test_engine_refuses_a_bad_override_with_one_line():
     with pytest.raises(UserError, match="render.resolution"):
         Engine("quick", {"render.resolution": -1})
+
+
+def test_engine_names_the_flag_of_a_bad_override():
+    with pytest.raises(UserError, match=r"^--resolution -1: invalid render.resolution"):
+        Engine("quick", {"render.resolution": -1}, flags={"render.resolution": "--resolution"})
+
+
+def test_spec_check_and_bake_refusal_need_no_blender(tmp_path, carton):
+    spec = ROOT / "examples" / "carton" / "spec.yaml"
+    checked = Engine().spec_check(spec)
+    assert checked.spec.name and checked.size is None and checked.hint is None
+    bare = tmp_path / "bare.yaml"
+    bare.write_text(spec.read_text().split("\nsimulation:")[0] + "\n")
+    with pytest.raises(UserError, match="declares no simulation scenarios"):
+        Engine("quick", {"object.spec": bare, "object.mesh": carton}).bake()
+
+
+def test_evaluate_checks_its_output_before_any_work_and_notes_what_it_found(tmp_path):
+    notes = []
+    with pytest.raises(UserError, match="is a folder"):
+        Engine(notify=notes.append).evaluate(tmp_path / "no-model", real=tmp_path, out=tmp_path)
+    assert notes == []
+    with pytest.raises(UserError, match="no intact/"):
+        Engine(notify=notes.append).evaluate(tmp_path / "no-model", real=tmp_path)

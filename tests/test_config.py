@@ -84,3 +84,30 @@ def test_scene_kinds_are_the_layouts_in_render_order():
     assert RenderConfig().scene_kinds == ()
     assert RenderConfig(shadow=True, surface={}).scene_kinds == SCENE_KINDS
     assert RenderConfig(surface={"kinds": ["cloth"]}).scene_kinds == ("surface",)
+
+
+@pytest.mark.parametrize(
+    "overrides, line",
+    [
+        ({"camera.polar": [70, 50]}, "--polar [70, 50]: invalid camera.polar: polar range [70.0, 50.0] is empty (min > max)"),
+        ({"camera.azimuth_quadrants": [[0, 10], [-400, 10]]}, "--azimuth_quadrants [[0, 10], [-400, 10]]: invalid "
+         "camera.azimuth_quadrants.1: azimuth_quadrants range [-400.0, 10.0] goes below -360"),
+        ({"render.surface": {"scale": [2, 1]}},
+         "--surface {'scale': [2, 1]}: invalid render.surface.scale: scale range [2.0, 1.0] is empty (min > max)"),
+        ({"render.look": "Punchy"}, "--look Punchy: render.look Punchy needs view_transform AgX (got Standard)"),
+    ],
+)
+def test_a_bad_value_inside_an_override_is_named_by_its_flag(overrides, line):
+    flags = {k: "--" + k.rsplit(".", 1)[-1] for k in overrides}
+    with pytest.raises(UserError) as exc:
+        load_config("quick", overrides, flags)
+    assert str(exc.value) == line
+
+
+def test_a_bad_value_in_a_file_is_named_by_the_file(tmp_path):
+    path = tmp_path / "c.yaml"
+    path.write_text("lighting:\n  area_lights:\n    count: [3, 1]\n")
+    with pytest.raises(UserError) as exc:
+        load_config(path)
+    assert str(exc.value) == f"{path}: invalid lighting.area_lights.count: count range [3, 1] is empty (min > max) " \
+        "(got [3, 1])"

@@ -1,4 +1,4 @@
-"""Identity by content (issue #10, finding 1): datasets and stage stamps follow the bytes of their inputs.
+"""Identity by content: datasets and stage stamps follow the bytes of their inputs and the settings that count.
 
 No Blender: the mesh probe is faked, renders come from fake workers (tests/generate/fakes.py), and the
 composite and report stages are replaced by fakes that write only their outputs.
@@ -12,10 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from deformsim.config import load_config
+from deformsim.config import Config, load_config
 from deformsim.generate import stage as gen_stage
-from deformsim.generate.stage import data_name
-from deformsim.identity import file_digest, files_digest, folder_digest
+from deformsim.generate.identity import data_name, data_settings
+from deformsim.identity import NEVER, WHEN_SET, digest, file_digest, files_digest, folder_digest, rule_of, when
 from deformsim.pipeline import run
 from tests.generate.fakes import use_fakes
 from tests.util import CARTON_SPEC
@@ -45,6 +45,47 @@ def test_digests_follow_bytes_not_size_or_time(tmp_path):
     assert file_digest(a) == file_digest(b) != before
     assert folder_digest(tmp_path) != folder_before
     assert files_digest([a], tmp_path) != files_digest([b], tmp_path)  # names count too
+
+
+# digest(data_settings(cfg)) of configs whose datasets exist: a rule on a field must not move any of them.
+PINNED = [
+    ("quick", {}, "2f3e63a5dbff"),
+    ("paper", {}, "081f1b29cd7a"),
+    ("quick", {"generate.workers": 3, "generate.n": 16, "generate.backend": "ray", "generate.address": "auto",
+      "generate.gather": True, "generate.preview": 0, "generate.recycle_every": 5, "generate.max_retries": 0,
+      "pose.drop_frames": 50, "pose.drop_height": 1.0, "composite.matte": "alpha", "train.epochs": 2},
+     "2f3e63a5dbff"),
+    ("quick", {"pose.mode": "drop"}, "c8195c3c78c2"),
+    ("quick", {"pose.mode": "drop", "pose.drop_upright": 0.5, "pose.drop_frames": 100}, "8fa97c0d1365"),
+    ("quick", {"camera.fill": [0.4, 0.8], "camera.offset": 0.2, "camera.partial": 0.2, "camera.fstop": [2, 8],
+      "camera.lens_mm": [35, 85]}, "ef7086c02c89"),
+    ("quick", {"camera.offset": 0.1}, "91ea725540ab"),
+    ("quick", {"render.surface": {}}, "29fde8ee8e70"),
+    ("quick", {"render.surface": {"kinds": ["cloth"], "scale": [1, 2]}}, "18f7751a133f"),
+    ("quick", {"render.shadow": True, "render.dense": False, "render.creases": True}, "c18cc702ca18"),
+    ("quick", {"render.threads": 2}, "d7151776a845"),
+    ("quick", {"generate.seed": 7, "generate.intact_fraction": 0.3}, "9fe6db05441a"),
+    ("quick", {"lighting.area_lights.count": [1, 2], "lighting.area_lights.kinds": ["ring"]}, "7ceab64c5c5c"),
+    ("quick", {"deform.sources.bank": 1, "deform.sources.lattice": 0}, "4b914d230383"),
+    ("quick", {"render.adaptive": True, "render.view_transform": "AgX", "render.look": "Punchy"}, "60c8ff527a2a"),
+]
+
+
+@pytest.mark.parametrize("preset, overrides, pinned", PINNED, ids=[",".join(o) or p for p, o, _ in PINNED])
+def test_existing_datasets_keep_their_identity(preset, overrides, pinned):
+    assert digest(data_settings(load_config(preset, overrides))) == pinned
+
+
+def test_the_rules_sit_on_the_fields():
+    assert rule_of(Config, "composite") == rule_of(Config, "train") == NEVER
+    assert rule_of(type(Config().generate), "workers") == NEVER
+    assert rule_of(type(Config().camera), "fill") == WHEN_SET
+    assert rule_of(type(Config().pose), "drop_frames") == when(mode="drop")
+    settings = data_settings(load_config("quick"))
+    assert list(settings) == ["object", "camera", "pose", "lighting", "deform", "render", "generate"]
+    assert settings["generate"] == {"seed": 0, "intact_fraction": 0.5} and settings["pose"] == {"tilt": [0.0, 90.0]}
+    assert "fill" not in settings["camera"] and "surface" not in settings["render"]
+    assert data_settings(load_config("quick", {"camera.fill": [0.4, 0.8]}))["camera"]["fill"] == [0.4, 0.8]
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""Output folders: replaced whole or not at all (issue #10, finding 4)."""
+"""Output folders: replaced whole or not at all."""
 
 from __future__ import annotations
 

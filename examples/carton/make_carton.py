@@ -1,6 +1,6 @@
 """Write `carton.stl`: a 70 x 70 x 190 mm drink carton with a gable top, finely subdivided (units: mm).
 
-A stand-in for a user's CAD export, used by the README walk-through and the tests:
+A stand-in for a user's CAD export, used by the docs/your-part.md walk-through and the tests:
     python examples/carton/make_carton.py OUT.stl
 """
 

@@ -1,4 +1,4 @@
-"""The pipeline as a Python API: one :class:`Engine` holds a config and runs each stage on paths.
+"""The pipeline as a Python API: one :class:`Engine` holds a config and runs each command on paths.
 
     from deformsim import Engine
 
@@ -9,26 +9,62 @@
     print(engine.evaluate(model, real="real_photos/")["metrics"]["accuracy"])
 
 Every method checks its inputs before any work and raises :class:`deformsim.errors.UserError` with one
-line naming the problem. The CLI is a thin layer over this class. Heavy modules (torch, Blender workers)
-load only when a method needs them.
+line naming the problem. Each CLI command parses its options into an Engine, calls one of its methods and
+prints what it returns. Heavy modules (torch, Blender workers) load only when a method needs them.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from deformsim.config import Config, apply_overrides, load_config, validate_config
 
+if TYPE_CHECKING:
+    from deformsim.evaluate.benchmark import Plan
+    from deformsim.spec.model import Spec
+
+
+@dataclass(frozen=True)
+class SpecCheck:
+    """A valid spec and, with a mesh, the mesh's size in metres and a hint when that size suggests wrong units."""
+
+    spec: Spec
+    size: list[float] | None = None
+    hint: str | None = None
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """A model's output per image: columns (CSV name -> one value per image) and their table headings."""
+
+    paths: list[Path]
+    columns: dict[str, Sequence]
+    headings: tuple[str, ...]
+
+
+def _path(p: str | Path | None) -> Path | None:
+    return Path(p) if p is not None else None
+
 
 class Engine:
-    """One config (a :class:`Config`, a YAML path or a preset name, plus dotted overrides) and the stages."""
+    """One config (a :class:`Config`, a YAML path or a preset name, plus dotted overrides) and the stages.
 
-    def __init__(self, config: Config | str | Path | None = None, overrides: dict | None = None, progress: bool = False):
+    ``flags`` names the command-line option behind override keys (``{"generate.n": "--n"}``) in errors about a
+    config read from a file or preset; ``notify`` receives one line on what a method found in its inputs before
+    its work starts (the real photos, the test set).
+    """
+
+    def __init__(self, config: Config | str | Path | None = None, overrides: dict | None = None, progress: bool = False,
+                 flags: dict[str, str] | None = None, notify: Callable[[str], None] | None = None):
         if isinstance(config, Config):
             self.config = validate_config(apply_overrides(config.model_dump(mode="json"), overrides), "Engine config")
         else:
-            self.config = load_config(config, overrides)
+            self.config = load_config(config, overrides, flags)
         self.progress = progress
+        self.notify = notify or (lambda line: None)
 
     def generate(self, out: str | Path, overwrite: bool = False):
         """Render the dataset into ``out`` (resuming what is there); a :class:`GenerateResult`.
@@ -43,7 +79,7 @@ class Engine:
         """Simulate the spec's ``simulation:`` scenarios into the cached bank (reused when cached; ``force``
         simulates again); the bank folder. ``generate`` bakes on first use when ``deform.sources`` uses it."""
         from deformsim.bank.stage import bake
-        from deformsim.generate.stage import check_part
+        from deformsim.generate.refusals import check_part
         from deformsim.spec.model import load_spec
 
         spec = load_spec(self.config.object.spec)
@@ -69,38 +105,131 @@ class Engine:
 
     def train(self, data: str | Path, out: str | Path, variant: str | None = None, adapt: str | Path | None = None,
               overwrite: bool = False):
-        """Train on a dataset variant or a folder of intact/ and deformed/ photos; a :class:`TrainResult`.
+        """Train on a dataset variant (default: the first of ``train.variants``) or a folder of intact/ and
+        deformed/ photos; a :class:`deformsim.learn.stage.TrainedModel`.
 
         ``adapt``: a folder of unlabelled photos of real parts to adapt to (needs ``train.feature_norm``). A model
         of other settings in ``out`` is refused unless ``overwrite``.
         """
-        from deformsim.dataset.tables import load_table
-        from deformsim.pipeline import train_model
+        from deformsim.learn.stage import train_model
 
-        table = load_table(Path(data), variant, self.config.train.variants[0])
-        return train_model(table, self.config.train, Path(out), Path(data), variant or self.config.train.variants[0],
-                           overwrite=overwrite,
-                           progress=self.progress, adapt=Path(adapt) if adapt is not None else None)
+        return train_model(Path(data), self.config.train, Path(out), variant, overwrite=overwrite,
+                           progress=self.progress, adapt=_path(adapt))
+
+    def predict(self, model: str | Path, images: Sequence[str | Path], csv: str | Path | None = None) -> Prediction:
+        """P(deformed) and the label of each image (files, or folders searched recursively), or what a model of
+        another ``train.target`` predicts; also written to ``csv`` (columns path, then the prediction's)."""
+        import pandas as pd
+
+        from deformsim.atomic import atomic_path
+        from deformsim.dataset.real import expand_images
+        from deformsim.learn.predict import load
+        from deformsim.outputs import check_file_target
+
+        if csv is not None:
+            check_file_target(csv, "--csv")
+        paths = expand_images(list(images))
+        predictor = load(model)
+        if predictor.target == "label":
+            proba, labels = predictor.predict(paths)
+            prediction = Prediction(paths, {"p_deformed": proba, "label": labels}, ("P(deformed)", "label"))
+        else:
+            prediction = _target_prediction(predictor, paths)
+        if csv is not None:
+            with atomic_path(csv) as tmp:
+                pd.DataFrame({"path": [str(p) for p in paths], **prediction.columns}).to_csv(tmp, index=False)
+        return prediction
+
+    def export_onnx(self, model: str | Path, onnx: str | Path) -> Path:
+        """A trained model as an ONNX file (input: 0-1 RGB NCHW; output: P(deformed)); its path."""
+        from deformsim.learn.onnx import to_onnx
+
+        return to_onnx(model, onnx)
 
     def evaluate(self, model: str | Path, data: str | Path | None = None, variant: str | None = None,
-                 real: str | Path | None = None, threshold: float | None = None) -> dict:
-        """Metrics and predictions of a trained model on a dataset variant or on real photos."""
+                 real: str | Path | None = None, threshold: float | None = None, out: str | Path | None = None) -> dict:
+        """Metrics and predictions of a trained model on a dataset variant or on real photos (also written to the
+        JSON file ``out``)."""
+        from deformsim.atomic import write_json
         from deformsim.evaluate.experiments import evaluate_model
+        from deformsim.outputs import check_file_target
 
-        return evaluate_model(model, data, variant, real, threshold)
+        if out is not None:
+            check_file_target(out, "--out")
+        self._check_real(real)
+        what = real if real is not None else f"{data} / {variant}"
+        self.notify(f"testing {model} on {what} (a progress bar follows on a terminal)")
+        result = evaluate_model(model, data, variant, real, threshold)
+        if out is not None:
+            write_json(out, result)
+        return result
 
     def report(self, data: str | Path, out: str | Path | None = None, real: str | Path | None = None,
                overwrite: bool = False) -> Path:
-        """Train and test every variant (the paper's Table II), write the HTML report; its path."""
-        from deformsim.pipeline import make_report
+        """Train and test every variant (the paper's Table II) into ``out`` (default: DATA/report), write the HTML
+        report; its path. A report of other settings or inputs in ``out`` is refused unless ``overwrite``."""
+        from deformsim.outputs import check_folder_target
+        from deformsim.report.stage import make_report
 
-        out = Path(out) if out is not None else Path(data) / "report"
-        return make_report(Path(data), self.config.train, out, real=Path(real) if real is not None else None,
-                           overwrite=overwrite, progress=self.progress)
+        out = check_folder_target(out if out is not None else Path(data) / "report", "--out")
+        self._check_real(real)
+        return make_report(Path(data), self.config.train, out, real=_path(real), overwrite=overwrite,
+                           progress=self.progress)
 
     def run(self, out: str | Path, real: str | Path | None = None, overwrite: bool = False):
         """Every stage into ``out``, skipping those already up to date; a :class:`RunResult`."""
         from deformsim.pipeline import run
 
-        return run(self.config, Path(out), real=Path(real) if real is not None else None, progress=self.progress,
-                   overwrite=overwrite)
+        self._check_real(real)
+        return run(self.config, Path(out), real=_path(real), progress=self.progress, overwrite=overwrite)
+
+    def spec_check(self, spec: str | Path, mesh: str | Path | None = None) -> SpecCheck:
+        """Validate a spec and, when given, its mesh (imported in a throwaway Blender process); nothing rendered."""
+        from deformsim.generate.probe import probe_mesh
+        from deformsim.spec.model import check_mesh_file, load_spec, units_hint
+
+        loaded = load_spec(spec)
+        if mesh is None:
+            return SpecCheck(loaded)
+        check_mesh_file(mesh)
+        size = probe_mesh(Path(mesh), Path(spec))["size"]
+        return SpecCheck(loaded, size, units_hint(size, loaded))
+
+    def spec_preview(self, spec: str | Path | None, mesh: str | Path | None, out: str | Path, resolution: int = 192,
+                     samples: int = 16) -> Path:
+        """Render the rest shape and each key of a spec (default: the built-in can) at full weight into one labelled
+        PNG ``out``; its path."""
+        from deformsim.generate.spec_preview import render_preview
+        from deformsim.outputs import check_file_target
+
+        out = check_file_target(out, "--out")  # before rendering
+        return render_preview(_path(spec), _path(mesh), out, resolution, samples)
+
+    def sim2real(self, real: str | Path, out: str | Path, plan: Plan | None = None, adapt: str | Path | None = None,
+                 datasets: str | Path | None = None) -> dict:
+        """The sim-to-real benchmark: train on synthetic images over the seeds of ``plan``, test on the labelled
+        ``real`` photos; its results (also in ``out/results.json`` and ``out/report.html``)."""
+        from deformsim.evaluate.benchmark import Plan, run_benchmark
+
+        return run_benchmark(self.config, Path(out), Path(real), plan or Plan(), adapt=_path(adapt),
+                             datasets=_path(datasets), progress=self.progress)
+
+    def _check_real(self, real: str | Path | None) -> None:
+        """Check a folder of labelled real photos and say what it holds, per class and subfolder."""
+        if real is not None:
+            from deformsim.dataset.real import describe, real_table
+
+            self.notify(f"real photos in {describe(real_table(real), real)}")
+
+
+def _target_prediction(predictor, paths: list[Path]) -> Prediction:
+    """The per-image columns and headings of a severity, family or localise model's output."""
+    out = predictor.predict_outputs(paths)
+    if predictor.target == "severity":
+        return Prediction(paths, {"max_disp_mm": out}, ("max displacement (mm)",))
+    if predictor.target == "family":
+        names = predictor.outputs
+        return Prediction(paths, {f"p_{n}": out[:, k] for k, n in enumerate(names)}, tuple(f"P({n})" for n in names))
+    thr = predictor.cfg.threshold
+    return Prediction(paths, {"region_fraction": (out >= thr).mean(axis=(1, 2)), "peak": out.max(axis=(1, 2))},
+                      ("predicted region (share of image)", "peak P(region)"))

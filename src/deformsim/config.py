@@ -1,19 +1,34 @@
 """The one configuration model: every default of every stage lives here.
 
 A run is described by a YAML file (see ``configs/``) validated against :class:`Config`. Presets are YAML
-files shipped in ``deformsim/presets``; ``quick`` is the default, ``paper`` reproduces the paper.
+files shipped in ``deformsim/presets``; ``quick`` is the default, ``paper`` reproduces the paper. Every field
+says what it does (``docs/configuration.md`` is written from the descriptions by :mod:`deformsim.config_reference`)
+and, by an :mod:`deformsim.identity` rule, whether a dataset's identity depends on it.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import yaml
-from pydantic import ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import ConfigDict, Field, ValidationError, model_validator
 
+from deformsim import identity
 from deformsim.errors import UserError
-from deformsim.schema import Range, StrictModel, check_range, read_mapping
+from deformsim.learn.backbones import BACKBONES
+from deformsim.schema import (
+    Above,
+    FractionRange,
+    NonEmpty,
+    NonNegativeRange,
+    OrderedRange,
+    PositiveRange,
+    Range,
+    StrictModel,
+    Within,
+    read_mapping,
+)
 
 PRESET_DIR = Path(__file__).parent / "presets"
 
@@ -25,57 +40,48 @@ class _Model(StrictModel):
 class ObjectConfig(_Model):
     """What is rendered: the built-in can or a user mesh, and its deformation spec."""
 
-    mesh: Path | None = Field(None, description="CAD mesh (stl/obj/ply/glb/gltf/fbx); None = built-in can")
-    spec: Path | None = Field(None, description="deformation spec YAML; None = built-in can spec")
+    mesh: Path | None = Field(None, description="CAD mesh (stl/obj/ply/glb/gltf/fbx); null = built-in can")
+    spec: Path | None = Field(None, description="deformation spec YAML; null = built-in can spec")
+
+
+AngleRange = Annotated[Range, Within(0, 180)]
 
 
 class CameraConfig(_Model):
     """Four cameras, one per azimuth quadrant, all tracking the object (paper, section III).
 
     The defaults are the paper's Table I cameras. ``fill``, ``offset``, ``partial``, a ``lens_mm`` range and
-    ``fstop`` frame each image like a person with a camera (drawn per image, :func:`deformsim.sampling.draw_framing`;
-    placed by :mod:`deformsim.blender.cameras`); all off by default.
+    ``fstop`` frame each image like a person with a camera (drawn per image); all off by default.
     """
 
-    azimuth_quadrants: list[Range] = [(20, 70), (110, 160), (200, 250), (290, 340)]
-    polar: Range = (50.0, 70.0)
-    radius: Range = (0.30, 0.45)
-    lens_mm: float | Range = Field(50.0, description="focal length (mm), or a [min, max] range drawn per image")
-    fill: Range | None = Field(
-        None, description="fraction of the frame side the part's 2D bounding box (longer side) fills, drawn per image: "
-        "the camera distance is solved for it (radius is then ignored); None = the drawn radius"
+    azimuth_quadrants: Annotated[list[Annotated[Range, Within(-360, 720)]],
+                                 NonEmpty("at least one camera (azimuth range) is needed")] = Field(
+        [(20, 70), (110, 160), (200, 250), (290, 340)], description="one camera per range: its azimuth (degrees "
+        "about the up axis) drawn per sample in [min, max]; generate.n is a multiple of the number of cameras"
     )
-    offset: float = Field(
+    polar: AngleRange = Field((50.0, 70.0), description="camera angle from the up axis (degrees), drawn per camera")
+    radius: PositiveRange = Field(
+        (0.30, 0.45), description="camera distance (m for the built-in can; scaled with a mesh's size), drawn per camera"
+    )
+    lens_mm: Annotated[float | Range, Above(1)] = Field(
+        50.0, description="focal length (mm), or a [min, max] range drawn per image"
+    )
+    fill: Annotated[FractionRange | None, identity.WHEN_SET] = Field(
+        None, description="fraction of the frame side the part's 2D bounding box (longer side) fills, drawn per image: "
+        "the camera distance is solved for it (radius is then ignored); null = the drawn radius"
+    )
+    offset: Annotated[float, identity.WHEN_SET] = Field(
         0.0, ge=0, le=0.5, description="the part's centre is shifted off the frame centre by up to this fraction of "
         "the frame in x and y (lens shift: no change of perspective)"
     )
-    partial: float = Field(
+    partial: Annotated[float, identity.WHEN_SET] = Field(
         0.0, ge=0, le=1, description="share of images whose part crosses the frame border (10-40 % of its box cut "
         "off at a random side)"
     )
-    fstop: Range | None = Field(
+    fstop: Annotated[PositiveRange | None, identity.WHEN_SET] = Field(
         None, description="depth of field: aperture f-number drawn per image (log-uniformly), focused on the part's "
-        "centre; None = off"
+        "centre; null = off"
     )
-
-    @field_validator("lens_mm")
-    @classmethod
-    def _lens(cls, v: float | Range) -> float | Range:
-        if isinstance(v, tuple):
-            check_range(v, above=1, name="lens_mm")
-        elif v <= 1:
-            raise ValueError(f"lens_mm {v} must be above 1 mm")
-        return v
-
-    @field_validator("fill")
-    @classmethod
-    def _fill(cls, v: Range | None) -> Range | None:
-        return v if v is None else check_range(v, hi=1, above=0, name="fill")
-
-    @field_validator("fstop")
-    @classmethod
-    def _fstop(cls, v: Range | None) -> Range | None:
-        return v if v is None else check_range(v, above=0, name="fstop")
 
     @property
     def lens_fixed(self) -> float:
@@ -88,107 +94,74 @@ class CameraConfig(_Model):
         return (self.fill is not None or self.offset > 0 or self.partial > 0 or isinstance(self.lens_mm, tuple)
                 or self.fstop is not None)
 
-    @field_validator("polar")
-    @classmethod
-    def _polar(cls, v: Range) -> Range:
-        return check_range(v, 0, 180)
 
-    @field_validator("radius")
-    @classmethod
-    def _radius(cls, v: Range) -> Range:
-        return check_range(v, above=0, name="camera radius")
-
-    @field_validator("azimuth_quadrants")
-    @classmethod
-    def _quadrants(cls, v: list[Range]) -> list[Range]:
-        if not v:
-            raise ValueError("at least one camera (azimuth range) is needed")
-        return [check_range(r, -360, 720) for r in v]
+_DROP_ONLY = identity.when(mode="drop")
 
 
 class PoseConfig(_Model):
     """How the object lies. ``tilt`` mode: tilted away from upright by ``tilt`` degrees about a random
     horizontal axis, in the air. ``drop`` mode: the deformed part falls from a random orientation onto the
-    ground with Blender's rigid-body solver and is rendered where it comes to rest (:mod:`deformsim.blender.drop`).
+    ground with Blender's rigid-body solver and is rendered where it comes to rest.
 
     The paper renders the part upright (tilt 0); real parts also lie on their side or show their ends.
     """
 
-    mode: Literal["tilt", "drop"] = "tilt"
-    tilt: Range = (0.0, 0.0)
-    drop_height: float = Field(0.25, ge=0, le=5, description="drop: start clearance over the ground, in part sizes")
-    drop_frames: int = Field(240, ge=10, le=2000, description="drop: most frames (24 fps) simulated before the pose is read")
-    drop_upright: float = Field(0.25, ge=0, le=1, description="drop: share of drops that start standing on an end")
-
-    @field_validator("tilt")
-    @classmethod
-    def _tilt(cls, v: Range) -> Range:
-        return check_range(v, 0, 180)
+    mode: Annotated[Literal["tilt", "drop"], identity.WHEN_SET] = Field(
+        "tilt", description="tilt: tilted in the air; drop: dropped onto the ground, rendered where it rests"
+    )
+    tilt: AngleRange = Field((0.0, 0.0), description="tilt mode: degrees away from upright, drawn per sample")
+    drop_height: Annotated[float, _DROP_ONLY] = Field(
+        0.25, ge=0, le=5, description="drop: start clearance over the ground, in part sizes"
+    )
+    drop_frames: Annotated[int, _DROP_ONLY] = Field(
+        240, ge=10, le=2000, description="drop: most frames (24 fps) simulated before the pose is read"
+    )
+    drop_upright: Annotated[float, _DROP_ONLY] = Field(
+        0.25, ge=0, le=1, description="drop: share of drops that start standing on an end"
+    )
 
 
 class AreaLightsConfig(_Model):
-    """Area lights added to the HDRI per sample, as in inspection set-ups (:mod:`deformsim.blender.lights`).
+    """Area lights added to the HDRI per sample, as in inspection set-ups.
 
     Kinds: ``softbox`` (a large rectangle near the part, from above), ``ring`` (a disk light just behind one
     of the sample's cameras, on its axis) and ``window`` (a large rectangle far away, from the side). Sizes and
     distances are for the built-in can and scale with the part like the camera radius. Off by default.
     """
 
-    count: tuple[int, int] = Field((0, 0), description="lights per sample, drawn uniformly in [min, max]; 0 = none")
-    kinds: list[Literal["softbox", "ring", "window"]] = ["softbox", "ring", "window"]
-    power: Range = Field(
+    count: Annotated[tuple[int, int], Within(0, 8)] = Field(
+        (0, 0), description="lights per sample, drawn uniformly in [min, max]; 0 = none"
+    )
+    kinds: Annotated[list[Literal["softbox", "ring", "window", "overhead"]],
+                     NonEmpty("area_lights.kinds is empty: name at least one of softbox, ring, window")] = Field(
+        ["softbox", "ring", "window"], description="kinds drawn per light"
+    )
+    power: NonNegativeRange = Field(
         (25.0, 150.0), description="watts the light would need 1 m from the built-in can (roughly 400 W lights a "
         "white part as much as a uniform world of strength 1); the power given to Blender grows with the light's "
         "distance squared and the part's size squared, so the light on the part does not depend on either"
     )
-    temperature: Range = Field((4500.0, 7500.0), description="colour temperature (K): warm below 6500, cool above")
-
-    @field_validator("count")
-    @classmethod
-    def _count(cls, v: tuple[int, int]) -> tuple[int, int]:
-        if v[0] < 0 or v[0] > v[1] or v[1] > 8:
-            raise ValueError(f"area_lights.count {list(v)} must satisfy 0 <= min <= max <= 8")
-        return v
-
-    @field_validator("kinds")
-    @classmethod
-    def _kinds(cls, v: list[str]) -> list[str]:
-        if not v:
-            raise ValueError("area_lights.kinds is empty: name at least one of softbox, ring, window")
-        return v
-
-    @field_validator("power")
-    @classmethod
-    def _power(cls, v: Range) -> Range:
-        return check_range(v, 0, name="area_lights.power")
-
-    @field_validator("temperature")
-    @classmethod
-    def _temperature(cls, v: Range) -> Range:
-        return check_range(v, 1000, 20000, name="area_lights.temperature")
+    temperature: Annotated[Range, Within(1000, 20000)] = Field(
+        (4500.0, 7500.0), description="colour temperature (K): warm below 6500, cool above"
+    )
 
 
 class LightingConfig(_Model):
     """HDRI world lighting: a random EXR at a random rotation; optional area lights on top."""
 
-    hdri_dir: Path | None = Field(None, description="folder of .exr/.hdr files; None = Blender's studiolights")
-    rotation: Range = (0.0, 360.0)
-    strength: Range = (0.8, 1.4)
-    area_lights: AreaLightsConfig = AreaLightsConfig()
-
-    @field_validator("strength")
-    @classmethod
-    def _strength(cls, v: Range) -> Range:
-        return check_range(v, 0)
+    hdri_dir: Path | None = Field(None, description="folder of .exr/.hdr files; null = Blender's studiolights")
+    rotation: Range = Field((0.0, 360.0), description="rotation of the HDRI about the up axis (degrees), drawn per sample")
+    strength: NonNegativeRange = Field((0.8, 1.4), description="strength of the HDRI world, drawn per sample")
+    area_lights: AreaLightsConfig = Field(AreaLightsConfig(), description="area lights on top of the HDRI")
 
 
 class Sources(_Model):
     """Relative weights of where a deformed sample's shape comes from: the spec's lattice keys (paper), an entry
     of the simulated bank (``simulation:`` in the spec, baked on first use), or both at once."""
 
-    lattice: float = Field(1.0, ge=0)
-    bank: float = Field(0.0, ge=0)
-    both: float = Field(0.0, ge=0)
+    lattice: float = Field(1.0, ge=0, description="weight of shapes made from the spec's lattice keys")
+    bank: float = Field(0.0, ge=0, description="weight of shapes taken from the simulated bank")
+    both: float = Field(0.0, ge=0, description="weight of a bank entry with lattice keys on top")
 
     @model_validator(mode="after")
     def _some(self) -> "Sources":
@@ -204,29 +177,21 @@ class Sources(_Model):
 class DeformConfig(_Model):
     """How deformed samples mix the spec's keys (paper, section III-B) and the simulated bank."""
 
-    families: tuple[int, int] = (3, 5)
+    families: Annotated[tuple[int, int], Within(1)] = Field(
+        (3, 5), description="number of the spec's families mixed in one deformed sample, drawn in [min, max] "
+        "(at most the families allowed)"
+    )
     use_families: list[str] | None = Field(None, description="simulate only these families of the spec")
-    extent: Range = (0.7, 1.5)
-    displacement: Range = (0.6, 1.0)
-    sources: Sources = Sources()
-    bank_amount: Range = Field((0.7, 1.0), description="weight of the drawn bank entry (1 = as simulated)")
-
-    @field_validator("families")
-    @classmethod
-    def _families(cls, v: tuple[int, int]) -> tuple[int, int]:
-        if v[0] < 1 or v[0] > v[1]:
-            raise ValueError(f"families range {list(v)} must satisfy 1 <= min <= max")
-        return v
-
-    @field_validator("extent", "displacement")
-    @classmethod
-    def _pos(cls, v: Range) -> Range:
-        return check_range(v, 0)
-
-    @field_validator("bank_amount")
-    @classmethod
-    def _amount(cls, v: Range) -> Range:
-        return check_range(v, 0, 1.5, name="bank_amount")  # above 1 extrapolates the simulation
+    extent: NonNegativeRange = Field(
+        (0.7, 1.5), description="total weight of the drawn families' shape keys, drawn per sample"
+    )
+    displacement: NonNegativeRange = Field(
+        (0.6, 1.0), description="total strength of the spec's displacement textures (surface crinkle), drawn per sample"
+    )
+    sources: Sources = Field(Sources(), description="where a deformed shape comes from: lattice keys, bank or both")
+    bank_amount: Annotated[Range, Within(0, 1.5)] = Field(
+        (0.7, 1.0), description="weight of the drawn bank entry (1 = as simulated, above 1 extrapolates)"
+    )
 
 
 SURFACE_KINDS = ("wood", "paper", "concrete", "metal", "cloth", "conveyor", "photo")
@@ -240,12 +205,9 @@ class SurfaceConfig(_Model):
         description="surface kinds drawn per sample (procedural materials; photo: a picture from photos)",
     )
     photos: Path | None = Field(None, description="folder of texture photos (table tops, floors) for kind photo")
-    scale: Range = Field((0.6, 1.6), description="texture scale: 1 = wood grain, weave, ridges at a real part's size")
-
-    @field_validator("scale")
-    @classmethod
-    def _scale(cls, v: Range) -> Range:
-        return check_range(v, above=0, name="scale")
+    scale: PositiveRange = Field(
+        (0.6, 1.6), description="texture scale: 1 = wood grain, weave, ridges at a real part's size"
+    )
 
     @model_validator(mode="after")
     def _photos(self) -> "SurfaceConfig":
@@ -257,10 +219,10 @@ class SurfaceConfig(_Model):
 class RenderConfig(_Model):
     """Cycles settings."""
 
-    resolution: int = Field(128, ge=16, le=4096)
-    samples: int = Field(16, ge=1, le=4096)
-    denoise: bool = True
-    device: Literal["auto", "cpu", "gpu"] = "auto"
+    resolution: int = Field(128, ge=16, le=4096, description="image width and height in pixels")
+    samples: int = Field(16, ge=1, le=4096, description="Cycles samples per pixel")
+    denoise: bool = Field(True, description="denoise each render (OpenImageDenoise)")
+    device: Literal["auto", "cpu", "gpu"] = Field("auto", description="auto = a GPU when Blender finds one")
     threads: int = Field(0, ge=0, description="Cycles threads per worker; 0 = cores / workers")
     render_backgrounds: bool = Field(
         False,
@@ -274,29 +236,29 @@ class RenderConfig(_Model):
         False, description="also write images/shadow/ID.png: the shadow and contact occlusion the part casts on a "
         "ground plane under it (a Cycles shadow catcher lit by the world), for compositing; rgba stays the part alone"
     )
-    surface: SurfaceConfig | None = Field(
+    surface: Annotated[SurfaceConfig | None, identity.WHEN_SET] = Field(
         None, description="also write images/surface/ID.png: the part resting on a textured ground plane, the "
-        "whole scene rendered under the same light (deformsim composite uses it by composite.surface); None = off"
+        "whole scene rendered under the same light (deformsim composite uses it by composite.surface); null = off"
     )
     # Cycles quality/speed (bench/render_quality.py measures them); defaults are Blender's, max_bounces 6.
     adaptive: bool = Field(False, description="adaptive sampling: stop pixels whose noise is below the threshold")
     adaptive_threshold: float = Field(0.01, gt=0, le=1, description="adaptive sampling noise threshold")
     adaptive_min_samples: int = Field(0, ge=0, le=4096, description="samples before adaptive stopping; 0 = automatic")
     max_bounces: int = Field(6, ge=0, le=1024, description="light-path bounces in total")
-    diffuse_bounces: int = Field(4, ge=0, le=1024)
-    glossy_bounces: int = Field(4, ge=0, le=1024)
-    transmission_bounces: int = Field(12, ge=0, le=1024)
-    transparent_bounces: int = Field(8, ge=0, le=1024)
-    volume_bounces: int = Field(0, ge=0, le=1024)
-    caustics_reflective: bool = True
-    caustics_refractive: bool = True
+    diffuse_bounces: int = Field(4, ge=0, le=1024, description="diffuse bounces")
+    glossy_bounces: int = Field(4, ge=0, le=1024, description="glossy bounces")
+    transmission_bounces: int = Field(12, ge=0, le=1024, description="transmission bounces")
+    transparent_bounces: int = Field(8, ge=0, le=1024, description="transparent bounces")
+    volume_bounces: int = Field(0, ge=0, le=1024, description="volume bounces")
+    caustics_reflective: bool = Field(True, description="reflective caustics")
+    caustics_refractive: bool = Field(True, description="refractive caustics")
     clamp_direct: float = Field(0.0, ge=0, description="clamp direct light samples to this value; 0 = off")
     clamp_indirect: float = Field(10.0, ge=0, description="clamp indirect light samples to this value; 0 = off")
     denoise_input: Literal["rgb", "rgb_albedo", "rgb_albedo_normal"] = Field(
         "rgb_albedo_normal", description="guide passes given to the denoiser"
     )
     denoise_prefilter: Literal["none", "fast", "accurate"] = Field("accurate", description="denoising of the guides")
-    denoise_quality: Literal["high", "balanced", "fast"] = "high"
+    denoise_quality: Literal["high", "balanced", "fast"] = Field("high", description="denoiser quality")
     tile_size: int = Field(2048, ge=8, le=8192, description="Cycles tile size in pixels")
     view_transform: Literal["Standard", "AgX", "Filmic", "Khronos PBR Neutral"] = Field(
         "Standard", description="colour view transform: Standard clips highlights at 1.0 (exact flat colours); "
@@ -320,47 +282,47 @@ class RenderConfig(_Model):
 
 
 class GenerateConfig(_Model):
-    """Dataset size, seed and the worker pool."""
+    """Dataset size, seed and the worker pool. A dataset can be resumed or extended with other values of the
+    settings that are not in its identity."""
 
-    n: int = Field(64, ge=1, description="number of images (intact + deformed)")
-    seed: int = 0
-    intact_fraction: float = Field(0.5, ge=0, le=1)
-    workers: int = Field(0, ge=0, description="render processes; 0 = automatic")
-    recycle_every: int = Field(200, ge=1, description="restart a worker after this many images")
-    max_retries: int = Field(2, ge=0)
-    backend: Literal["local", "ray"] = "local"
-    address: str | None = None
-    gather: bool = False
-    preview: int = Field(16, ge=0, description="images on the contact sheet")
+    n: Annotated[int, identity.NEVER] = Field(64, ge=1, description="number of images (intact + deformed)")
+    seed: int = Field(0, description="seed of every random draw of every sample")
+    intact_fraction: float = Field(0.5, ge=0, le=1, description="share of intact samples, spread evenly over them")
+    workers: Annotated[int, identity.NEVER] = Field(0, ge=0, description="render processes; 0 = automatic")
+    recycle_every: Annotated[int, identity.NEVER] = Field(
+        200, ge=1, description="restart a worker after this many images"
+    )
+    max_retries: Annotated[int, identity.NEVER] = Field(
+        2, ge=0, description="retries of a failed sample before it is recorded in failures.json"
+    )
+    backend: Annotated[Literal["local", "ray"], identity.NEVER] = Field(
+        "local", description="local: worker processes on this machine; ray: actors on a Ray cluster"
+    )
+    address: Annotated[str | None, identity.NEVER] = Field(
+        None, description="Ray cluster address (HOST:PORT or auto); null = a Ray started on this machine"
+    )
+    gather: Annotated[bool, identity.NEVER] = Field(
+        False, description="Ray: render on each node's local disk and return the images to the driver"
+    )
+    preview: Annotated[int, identity.NEVER] = Field(16, ge=0, description="images on the contact sheet")
 
 
 class CameraEffects(_Model):
-    """Camera effects drawn per composite (:mod:`deformsim.composite.effects`); None turns one off."""
+    """Camera effects drawn per composite; null turns one off."""
 
-    exposure: Range | None = Field((-0.5, 0.5), description="exposure change in stops")
-    white_balance: Range | None = Field((-0.08, 0.08), description="red/blue gain shift (warm > 0)")
-    vignette: Range | None = Field((0.0, 0.35), description="darkening at the corners")
-    blur: Range | None = Field((0.0, 0.006), description="defocus: Gaussian sigma as a fraction of the image size")
+    exposure: OrderedRange | None = Field((-0.5, 0.5), description="exposure change in stops")
+    white_balance: OrderedRange | None = Field((-0.08, 0.08), description="red/blue gain shift (warm > 0)")
+    vignette: NonNegativeRange | None = Field((0.0, 0.35), description="darkening at the corners")
+    blur: NonNegativeRange | None = Field(
+        (0.0, 0.006), description="defocus: Gaussian sigma as a fraction of the image size"
+    )
     motion_blur: Range | None = Field(
         None, description="camera shake: blur along a random direction, its length a fraction of the image size"
     )
-    noise: Range | None = Field((0.0, 0.025), description="sensor noise: standard deviation in 0-1 units")
-    jpeg_quality: tuple[int, int] | None = Field((45, 95), description="JPEG re-compression quality")
-
-    @field_validator("blur", "noise", "vignette")
-    @classmethod
-    def _nonneg(cls, v: Range | None) -> Range | None:
-        return v if v is None else check_range(v, 0)
-
-    @field_validator("exposure", "white_balance")
-    @classmethod
-    def _ordered(cls, v: Range | None) -> Range | None:
-        return v if v is None else check_range(v)
-
-    @field_validator("jpeg_quality")
-    @classmethod
-    def _quality(cls, v: tuple[int, int] | None) -> tuple[int, int] | None:
-        return v if v is None else check_range(v, 1, 100, name="jpeg_quality")
+    noise: NonNegativeRange | None = Field((0.0, 0.025), description="sensor noise: standard deviation in 0-1 units")
+    jpeg_quality: Annotated[tuple[int, int], Within(1, 100)] | None = Field(
+        (45, 95), description="JPEG re-compression quality"
+    )
 
 
 class CompositeConfig(_Model):
@@ -369,68 +331,72 @@ class CompositeConfig(_Model):
     matte: Literal["alpha", "chroma", "inrange"] = Field(
         "chroma", description="alpha: exact render alpha; chroma: soft green key; inrange: the paper's hard key"
     )
-    key_color: tuple[int, int, int] = (0, 255, 0)
-    tolerance: int = Field(60, ge=0, le=255)
-    close_kernel: int = Field(5, ge=0)
-    open_kernel: int = Field(3, ge=0)
-    erode_kernel: int = Field(3, ge=0)
-    backgrounds: Path | None = Field(None, description="folder of photos; None = procedural backgrounds")
-    scale_jitter: Range = (1.0, 1.3)
-    flip: bool = True
+    key_color: tuple[int, int, int] = Field((0, 255, 0), description="RGB colour of the screen behind the part")
+    tolerance: int = Field(
+        60, ge=0, le=255, description="key tolerance (0-255): how far from the screen a pixel still counts as screen"
+    )
+    close_kernel: int = Field(5, ge=0, description="closing of the part's key mask: kernel size in pixels")
+    open_kernel: int = Field(3, ge=0, description="opening of the part's key mask: kernel size in pixels")
+    erode_kernel: int = Field(3, ge=0, description="erosion at the part's edge: kernel size in pixels")
+    backgrounds: Path | None = Field(None, description="folder of photos; null = procedural backgrounds")
+    scale_jitter: Annotated[Range, Within(1.0)] = Field(
+        (1.0, 1.3), description="zoom into the background photo, drawn per image (1 = the photo just covers the frame)"
+    )
+    flip: bool = Field(True, description="mirror background photos left-right at random")
     flip_part: float = Field(0.0, ge=0, le=1, description="probability of mirroring the part (and its maps) left-right")
-    workers: int = Field(0, ge=0)
-    variants: list[str] = ["black", "backgrounds"]
+    workers: int = Field(0, ge=0, description="composite processes; 0 = automatic")
+    variants: list[str] = Field(
+        ["black", "backgrounds"], description="variants deformsim run makes: black and green are the renders; "
+        "backgrounds composites onto composite.backgrounds (procedural backgrounds when it is null)"
+    )
     balance_backgrounds: bool = Field(
         False, description="use each photo about equally often behind intact and deformed images"
     )
-    object_fill: Range | None = Field(
-        None, description="crop around the object so its longer side fills this fraction of the frame; None = as rendered"
+    object_fill: FractionRange | None = Field(
+        None, description="crop around the object so its longer side fills this fraction of the frame; null = as rendered"
     )
     fill_offset: float = Field(0.1, ge=0, le=0.5, description="random shift of the object from the frame centre")
-    effects: CameraEffects | None = Field(None, description="camera effects per composite; None = none")
+    effects: CameraEffects | None = Field(None, description="camera effects per composite; null = none")
     surface: float = Field(
         0.0, ge=0, le=1, description="share of images that show the rendered surface scene of a dataset rendered "
         "with render.surface instead of the part over a background (no matte; framing, flip and effects apply)"
     )
-    shadow_strength: Range = Field(
+    shadow_strength: Annotated[Range, Within(0, 1)] = Field(
         (1.0, 1.0), description="alpha matte on a dataset rendered with render.shadow: the part's shadow darkens "
         "the background by strength * shadow, strength drawn per image from this range (0 = no shadow)"
     )
-
-    @field_validator("object_fill")
-    @classmethod
-    def _fill(cls, v: Range | None) -> Range | None:
-        return v if v is None else check_range(v, hi=1, above=0, name="object_fill")
-
-    @field_validator("scale_jitter")
-    @classmethod
-    def _scale(cls, v: Range) -> Range:
-        check_range(v, 1.0)
-        return v
-
-    @field_validator("shadow_strength")
-    @classmethod
-    def _shadow(cls, v: Range) -> Range:
-        return check_range(v, 0, 1, "shadow_strength")
 
 
 class TrainConfig(_Model):
     """The condition-assessment model (paper, section IV)."""
 
-    backbone: Literal["vgg16", "mobilenet_v2"] = "vgg16"
-    weights: Literal["imagenet", "offline", "none"] = "imagenet"
-    image_size: int = Field(224, ge=32)
-    hidden: tuple[int, int] = (256, 128)
-    dropout: float = Field(0.5, ge=0, lt=1)
-    lr: float = Field(1e-3, gt=0)
-    batch_size: int = Field(32, ge=1)
-    epochs: int = Field(15, ge=1)
-    split: float = Field(0.8, gt=0, lt=1)
-    augment: bool = False
-    cache_features: bool = True
-    threshold: float = Field(0.5, gt=0, lt=1)
-    variants: list[str] = ["black", "backgrounds"]
-    seed: int = 0
+    backbone: Literal[tuple(BACKBONES)] = Field(
+        "vgg16", description="ImageNet-pretrained network whose features the head learns on (deformsim.learn.backbones)"
+    )
+    weights: Literal["imagenet", "offline", "none"] = Field(
+        "imagenet", description="imagenet: torchvision's weights, else the offline package's; offline: the offline "
+        "package's only; none: random initialisation"
+    )
+    image_size: int = Field(224, ge=32, description="input size in pixels (images are resized to it)")
+    hidden: tuple[int, int] = Field((256, 128), description="widths of the mlp head's two hidden layers")
+    dropout: float = Field(0.5, ge=0, lt=1, description="dropout in the head")
+    lr: float = Field(1e-3, gt=0, description="Adam learning rate")
+    batch_size: int = Field(32, ge=1, description="images per batch")
+    epochs: int = Field(15, ge=1, description="passes over the training images")
+    split: float = Field(
+        0.8, gt=0, lt=1, description="share of the rendered objects that trains (the rest validates; an object's "
+        "cameras stay on one side)"
+    )
+    augment: bool = Field(False, description="random resized crops, flips and colour jitter while training")
+    cache_features: bool = Field(
+        True, description="train on cached activations of the frozen backbone (not with augment)"
+    )
+    threshold: float = Field(0.5, gt=0, lt=1, description="probability from which an image (or pixel) is deformed")
+    variants: list[str] = Field(
+        ["black", "backgrounds"], description="image variants the report trains and evaluates on; the first is "
+        "deformsim train's default"
+    )
+    seed: int = Field(0, description="seed of the split, the initialisation and the batch order")
     device: Literal["auto", "cpu", "cuda"] = Field("auto", description="auto = cuda when available")
     finetune: Literal["last_conv", "last_block"] = Field(
         "last_conv", description="trainable part of the backbone: its last convolution (the paper) or last block"
@@ -454,15 +420,17 @@ class TrainConfig(_Model):
 class Config(_Model):
     """A whole run: object, rig sampling, scene, rendering, compositing and training."""
 
-    object: ObjectConfig = ObjectConfig()
-    camera: CameraConfig = CameraConfig()
-    pose: PoseConfig = PoseConfig()
-    lighting: LightingConfig = LightingConfig()
-    deform: DeformConfig = DeformConfig()
-    render: RenderConfig = RenderConfig()
-    generate: GenerateConfig = GenerateConfig()
-    composite: CompositeConfig = CompositeConfig()
-    train: TrainConfig = TrainConfig()
+    object: ObjectConfig = Field(ObjectConfig(), description="the part and its deformation spec")
+    camera: CameraConfig = Field(CameraConfig(), description="the cameras and how each image is framed")
+    pose: PoseConfig = Field(PoseConfig(), description="how the part lies")
+    lighting: LightingConfig = Field(LightingConfig(), description="HDRI world and area lights")
+    deform: DeformConfig = Field(DeformConfig(), description="how deformed samples are shaped")
+    render: RenderConfig = Field(RenderConfig(), description="Cycles settings and the extra images per render")
+    generate: GenerateConfig = Field(GenerateConfig(), description="dataset size, seed and the render workers")
+    composite: Annotated[CompositeConfig, identity.NEVER] = Field(
+        CompositeConfig(), description="matting and backgrounds (deformsim composite)"
+    )
+    train: Annotated[TrainConfig, identity.NEVER] = Field(TrainConfig(), description="the model (deformsim train)")
 
     @model_validator(mode="after")
     def _balanced(self) -> "Config":
@@ -510,18 +478,22 @@ def apply_overrides(data: dict, overrides: dict | None) -> dict:
 def validate_config(data: dict, origin: str = "config", overrides: dict | None = None,
                     flags: dict[str, str] | None = None) -> Config:
     """``data`` as a :class:`Config`, or one :class:`UserError` line naming the bad value and where it came from:
-    ``origin`` (the file), or, for a key set by ``overrides``, its flag in ``flags`` (else "override KEY")."""
+    ``origin`` (the file), or, for a key set by ``overrides`` (the bad value is that key or inside it, or the
+    message names it), its flag in ``flags`` (else "override KEY")."""
     try:
         return Config.model_validate(data)
     except ValidationError as exc:
         err = exc.errors()[0]
         where = ".".join(str(p) for p in err["loc"]) or "config"
         msg = err["msg"].removeprefix("Value error, ")
-        key = where if where in (overrides or {}) else next((k for k in overrides or {} if k in msg), None)
+        given = overrides or {}
+        key = next((k for k in given if where == k or where.startswith(f"{k}.")), None)
+        what = f"invalid {where}: {msg}"
+        if key is None:
+            key, what = next((k for k in given if k in msg), None), msg
         if key is not None:
             flag = (flags or {}).get(key) or f"override {key}"
-            what = f"invalid {key}: {msg}" if key == where else msg
-            raise UserError(f"{flag} {overrides[key]}: {what}") from None
+            raise UserError(f"{flag} {given[key]}: {what}") from None
         raise UserError(f"{origin}: invalid {where}: {msg} (got {err.get('input')!r})") from None
 
 

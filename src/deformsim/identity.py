@@ -4,6 +4,9 @@ A file's identity is the sha256 of its bytes. Within one process a digest is reu
 size, modification and change times are unchanged (the change time moves on every write, ``cp -p`` and
 ``touch -r`` included, and cannot be set back), so a command that reads an image several times hashes it once.
 Nothing is remembered between processes: every command hashes what it reads.
+
+The settings an output was made from are the config's fields, less those a :class:`Rule` marks as not changing
+it (:func:`settings`); the rule is ``Annotated`` metadata on the field itself.
 """
 
 from __future__ import annotations
@@ -11,7 +14,10 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+from dataclasses import dataclass
 from pathlib import Path
+
+from pydantic import BaseModel
 
 _CHUNK = 1 << 20
 _MEMO: dict[str, tuple[tuple, str]] = {}  # absolute path -> (stat key, sha256)
@@ -54,3 +60,53 @@ def folder_digest(folder: str | Path) -> str:
     """Identity of every file under ``folder``: names and contents."""
     folder = Path(folder)
     return files_digest([p for p in folder.rglob("*") if p.is_file()], folder)
+
+
+@dataclass(frozen=True)
+class Rule:
+    """How a config field counts in the identity of what is made from it; a field without a rule always counts.
+
+    ``never``: it does not change the output (a worker count, a later stage's settings). ``when_set``: it counts
+    only away from its default, so an option whose default changes nothing keeps every identity as it is.
+    ``when``: it counts only while the sibling field ``when[0]`` holds the value ``when[1]``.
+    """
+
+    never: bool = False
+    when_set: bool = False
+    when: tuple[str, object] | None = None
+
+    def counts(self, model: BaseModel, value: object, default: object) -> bool:
+        if self.never or (self.when_set and value == default):
+            return False
+        return self.when is None or getattr(model, self.when[0]) == self.when[1]
+
+
+ALWAYS = Rule()
+NEVER = Rule(never=True)
+WHEN_SET = Rule(when_set=True)
+
+
+def when(**sibling: object) -> Rule:
+    """The rule of a field that counts only while one sibling field holds a value: ``when(mode="drop")``."""
+    ((name, value),) = sibling.items()
+    return Rule(when=(name, value))
+
+
+def rule_of(model: type[BaseModel], name: str) -> Rule:
+    """The :class:`Rule` of ``model``'s field ``name``."""
+    return next((m for m in model.model_fields[name].metadata if isinstance(m, Rule)), ALWAYS)
+
+
+def settings(model: BaseModel) -> dict:
+    """``model`` as JSON (``model_dump(mode="json")``) with only the fields that count by their rule, nested
+    models walked alike."""
+    return _counted(model, model.model_dump(mode="json"))
+
+
+def _counted(model: BaseModel, dumped: dict) -> dict:
+    out = {}
+    for name, info in type(model).model_fields.items():
+        value = getattr(model, name)
+        if rule_of(type(model), name).counts(model, value, info.default):
+            out[name] = _counted(value, dumped[name]) if isinstance(value, BaseModel) else dumped[name]
+    return out

@@ -6,10 +6,6 @@ hash matches the one recorded in ``OUT/stages.json`` is skipped. The dataset fol
 the settings and input contents that determine the renders, so changing only training settings reuses the
 renders, growing ``n`` resumes, and an edited mesh or spec renders a new dataset. The report is built beside
 the old one and replaces it whole.
-
-:func:`train_model` and :func:`make_report` put a model or a report into a folder the same way for the
-command line and the Python API: refused when the folder holds one made with other settings or inputs (unless
-``overwrite``), built beside it and swapped in whole.
 """
 
 from __future__ import annotations
@@ -22,15 +18,17 @@ from pathlib import Path
 from deformsim.atomic import write_json
 from deformsim.config import Config
 from deformsim.errors import UserError
-from deformsim.generate.stage import data_identity, prepare
-from deformsim.identity import digest, files_digest, folder_digest
+from deformsim.generate.identity import data_identity
+from deformsim.generate.stage import prepare
+from deformsim.identity import digest, files_digest
 from deformsim.log import get_logger
-from deformsim.outputs import check_folder_target, claim, replacing
+from deformsim.outputs import check_folder_target
+from deformsim.report.stage import make_report, real_digest
 from deformsim.spec.model import load_spec
 
 log = get_logger(__name__)
 
-__all__ = ["RunResult", "Stages", "digest", "folder_digest", "make_report", "run", "train_model"]
+__all__ = ["RunResult", "Stages", "run"]
 
 
 @dataclass
@@ -118,67 +116,3 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
 
     stage("report", report_stamp, result.report, report)
     return result
-
-
-def real_digest(real: Path | None) -> str | None:
-    """A folder of labelled real photos by content and place (the folder gives the label); None without one."""
-    from deformsim.dataset.real import real_table
-
-    return files_digest(list(real_table(real)["path"]), real) if real is not None else None
-
-
-def images_digest(table, root: Path) -> str:
-    """A training table's images by content, names (relative to ``root``) and labels."""
-    return digest([files_digest(list(table["path"]), root), [int(y) for y in table["y"]]])
-
-
-def train_model(table, cfg, out: Path, data: Path, variant: str | None = None, overwrite: bool = False,
-                progress: bool = True, **fit_args):
-    """:func:`deformsim.learn.train.fit` on ``table`` (from ``data``, its ``variant``) into the folder ``out``.
-
-    Refused with one line when ``out`` is a file, holds files but no model, or holds a model trained with other
-    settings or images (unless ``overwrite``); the model is built beside ``out`` and swapped in whole. Returns
-    fit's result with ``model_path`` in ``out``.
-    """
-    import dataclasses
-
-    from deformsim.dataset.tables import check_table
-    from deformsim.learn.checkpoint import MODEL_FILE
-    from deformsim.learn.train import fit
-
-    out = check_folder_target(out, "--out")
-    check_table(table)
-    identity = {"settings": cfg.model_dump(mode="json"),
-                "inputs": {"variant": variant, "images": images_digest(table, data)}}
-    claim(out, "model", identity, overwrite)
-    with replacing(out, identity, "model") as tmp:
-        result = fit(table, cfg, tmp, progress=progress, **fit_args)
-    return dataclasses.replace(result, model_path=out / MODEL_FILE)
-
-
-def make_report(data: Path, cfg, out: Path, real: Path | None = None, overwrite: bool = False,
-                progress: bool = True) -> Path:
-    """The paper's Table II on dataset ``data`` with training settings ``cfg``, as ``out/report.html``.
-
-    Refused with one line when ``out`` is a file, holds files but no report, or holds a report made with other
-    settings or inputs (unless ``overwrite``); built beside ``out`` and swapped in whole, so no model or plot
-    of an older report is left. Returns the path of report.html.
-    """
-    from deformsim.dataset.layout import Layout
-    from deformsim.dataset.manifest import read_manifest
-    from deformsim.dataset.variants import VARIANT_MANIFEST
-    from deformsim.evaluate.experiments import run_experiments
-    from deformsim.report.html import write_report
-
-    out = check_folder_target(out, "--out")
-    read_manifest(data)  # a clear error when ``data`` is not a dataset
-    layout = Layout(data)
-    manifests = [layout.manifest, *sorted((layout.root / "variants").glob(f"*/{VARIANT_MANIFEST}"))]
-    real_id = real_digest(real)
-    identity = {"settings": cfg.model_dump(mode="json"), "inputs": {"data": files_digest(manifests, data),
-                                                                    "real": real_id}}
-    claim(out, "report", identity, overwrite)
-    with replacing(out, identity, "report") as tmp:
-        metrics = run_experiments(data, cfg, tmp, real_dir=real, progress=progress)
-        write_report(metrics, tmp)
-    return out / "report.html"

@@ -1,11 +1,18 @@
-"""What the config and the spec share: strict models, range checks, and reading a YAML mapping safely."""
+"""What the config and the spec share: strict models, range types, and reading a YAML mapping safely.
+
+A range is a ``[min, max]`` pair. The range types carry their bounds in ``Annotated`` metadata (:class:`Within`,
+:class:`Above`), checked after the pair is parsed, and their errors name the field: ``fill: FractionRange | None``.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Annotated
 
 import yaml
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, GetCoreSchemaHandler
+from pydantic_core import core_schema
 
 from deformsim.errors import UserError
 
@@ -33,6 +40,58 @@ def check_range(v: Range, lo: float | None = None, hi: float | None = None, name
     if hi is not None and b > hi:
         raise ValueError(f"{what} goes above {hi}")
     return v
+
+
+class _Check:
+    """``Annotated`` metadata whose ``check(value, field_name)`` runs on the parsed value."""
+
+    def __get_pydantic_core_schema__(self, source: object, handler: GetCoreSchemaHandler) -> core_schema.CoreSchema:
+        return core_schema.with_info_after_validator_function(
+            lambda v, info: self.check(v, info.field_name or ""), handler(source))
+
+
+@dataclass(frozen=True)
+class Within(_Check):
+    """A range with ``min <= max``, ``lo <= min``, ``max <= hi`` and ``min > above`` (each bound optional)."""
+
+    lo: float | None = None
+    hi: float | None = None
+    above: float | None = None
+
+    def check(self, v: Range, name: str) -> Range:
+        return check_range(v, self.lo, self.hi, name, self.above)
+
+
+@dataclass(frozen=True)
+class Above(_Check):
+    """A number above ``bound``, or a range whose values all are."""
+
+    bound: float
+
+    def check(self, v: float | Range, name: str) -> float | Range:
+        if isinstance(v, tuple):
+            return check_range(v, name=name, above=self.bound)
+        if v <= self.bound:
+            raise ValueError(f"{name} {v} must be above {self.bound}")
+        return v
+
+
+@dataclass(frozen=True)
+class NonEmpty(_Check):
+    """A list with at least one item; ``message`` says what an empty one lacks."""
+
+    message: str
+
+    def check(self, v: list, name: str) -> list:
+        if not v:
+            raise ValueError(self.message)
+        return v
+
+
+OrderedRange = Annotated[Range, Within()]
+NonNegativeRange = Annotated[Range, Within(0)]
+PositiveRange = Annotated[Range, Within(above=0)]
+FractionRange = Annotated[Range, Within(hi=1, above=0)]  # a share of something that is never empty: (0, 1]
 
 
 def read_mapping(path: Path, what: str) -> dict:

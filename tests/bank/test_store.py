@@ -45,7 +45,7 @@ def test_a_rebaked_bank_makes_a_new_dataset_identity(monkeypatch):
     """Renders made from one bank are never resumed with another: the bank key is part of the data identity."""
     from deformsim.bank import store
     from deformsim.config import load_config
-    from deformsim.generate.stage import data_name
+    from deformsim.generate.identity import data_name
 
     lattice = load_config("quick", {})
     bank = load_config("quick", {"deform.sources.bank": 1})

@@ -1,7 +1,8 @@
 """Outputs are never silently replaced or mixed, and every output path is checked before any work.
 
-Issue #10, findings 4 (train/report --out, --overwrite), 5 (export, evaluate, spec preview, --out a file) and 7
-(the --real folder rule). A small "generated" dataset is made from the blob images (no Blender).
+Covered: train/report --out and --overwrite; export, evaluate, predict and spec preview targets (a folder, a file
+in the way, an unwritable place); the --real folder rule. A small "generated" dataset is made from the blob
+images (no Blender).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The one image loader: every PIL mode reads as the same 8-bit sRGB RGB, in every stage (issue #10, finding 3)."""
+"""The one image loader: every PIL mode reads as the same 8-bit sRGB RGB, in every stage."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
-"""`deformsim generate` never mixes or silently shrinks a dataset; every failure is one line; SIGTERM is Ctrl-C.
+"""`deformsim generate` never mixes or silently shrinks a dataset; every failure (a full disk, a bad flag value)
+is one line; SIGTERM is Ctrl-C.
 
-Issue #10, findings 1, 4, 5 (full disk), 6 and 7 (flag values). Renders come from fake workers
-(tests/generate/fakes.py): the driver's behaviour is what is tested, without Blender.
+Renders come from fake workers (tests/generate/fakes.py): the driver's behaviour is what is tested, without Blender.
 """
 
 from __future__ import annotations
@@ -65,6 +65,16 @@ def test_a_changed_mesh_is_refused_and_overwrite_renders_all_anew(monkeypatch, t
 
     shades = {Image.open(out / p).getpixel((0, 0))[1] for p in read_manifest(out)["black"]}
     assert shades == {0x80}  # every image shows the new part
+
+
+def test_run_settings_may_change_on_resume_and_a_counted_one_may_not(monkeypatch, tmp_path):
+    use_fakes(monkeypatch)
+    out = tmp_path / "D"
+    generate(cfg_for(n=4), out, progress=False)
+    more = cfg_for(n=8, **{"generate.workers": 2, "generate.max_retries": 0, "pose.drop_frames": 50})
+    assert generate(more, out, progress=False).rendered == 1  # resumed: the settings that count are the same
+    with pytest.raises(UserError, match=r"other settings \(camera.offset: None there, 0.1 now\)"):
+        generate(cfg_for(n=8, **{"camera.offset": 0.1}), out, progress=False)
 
 
 def test_a_changed_spec_is_refused(monkeypatch, tmp_path, carton_part):

@@ -1,4 +1,4 @@
-"""SIGTERM to the driver behaves like Ctrl-C with real Blender workers (issue #10, finding 6)."""
+"""SIGTERM to the driver behaves like Ctrl-C with real Blender workers."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""A tiny generated dataset in the dense ground-truth format of issue 14, drawn without Blender.
+"""A tiny generated dataset in the dense ground-truth format, drawn without Blender.
 
 Each sample is a grey disc (the part) on a dark background, seen by two "cameras" (the second mirrored). A deformed
 sample carries one or both families: ``dent``, a dark spot whose radius grows with the displacement, and ``crease``,

@@ -1,4 +1,4 @@
-"""The feature cache keys on image content (issue #10, finding 2); prediction shows its progress (finding 7)."""
+"""The feature cache keys on image content; prediction shows its progress."""
 
 from __future__ import annotations
 

@@ -15,7 +15,7 @@ from deformsim.cli.learn import register
 from deformsim.config import TrainConfig
 from deformsim.errors import UserError
 from deformsim.learn.data import load_image
-from deformsim.learn.export import to_onnx
+from deformsim.learn.onnx import to_onnx
 from deformsim.learn.predict import load
 from deformsim.learn.train import fit
 

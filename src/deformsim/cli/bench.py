@@ -7,26 +7,9 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import console, fail_cleanly
-from deformsim.errors import UserError
+from deformsim.cli.common import ConfigArgs, console, fail_cleanly, parse_sets
 
 SIZES = {True: {"generate.n": 320}, False: {"generate.n": 640}}  # --quick or not
-
-
-def parse_sets(items: list[str]) -> dict:
-    """``["train.epochs=5", ...]`` as dotted overrides; values are read as YAML scalars or lists."""
-    import yaml
-
-    out = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise UserError(f"--set {item!r}: expected KEY=VALUE, e.g. train.epochs=5")
-        try:
-            out[key.strip()] = yaml.safe_load(value)
-        except yaml.YAMLError:
-            raise UserError(f"--set {item!r}: the value is not valid YAML") from None
-    return out
 
 
 def register(app: typer.Typer) -> None:
@@ -53,18 +36,15 @@ def register(app: typer.Typer) -> None:
         progress: bool = typer.Option(True, "--progress/--no-progress"),
     ) -> None:
         """Train on synthetic images with several seeds; print real-photo metrics as mean ± std."""
-        from deformsim.config import load_config
-        from deformsim.evaluate.benchmark import Plan, format_table, run_benchmark
+        from deformsim.evaluate.benchmark import Plan, format_table
 
-        overrides = {**SIZES[quick], **parse_sets(set_)}
-        if backgrounds is not None:
-            overrides["composite.backgrounds"] = str(backgrounds)
-        cfg = load_config(config, overrides)
+        engine = ConfigArgs(config, {"--backgrounds": ("composite.backgrounds", str(backgrounds) if backgrounds else None)},
+                            overrides={**SIZES[quick], **parse_sets(set_)}).engine(progress)
         plan = Plan(data_seeds=data_seeds,
                     composite_seeds=composite_seeds or (2 if quick else 3),
                     train_seeds=train_seeds or (2 if quick else 3),
                     variants=tuple(v.strip() for v in variants.split(",") if v.strip()))
-        results = run_benchmark(cfg, out, real, plan, adapt=adapt, datasets=datasets, progress=progress)
+        results = engine.sim2real(real, out, plan, adapt=adapt, datasets=datasets)
         console.print(format_table(results["variants"], results["majority_baseline"]), soft_wrap=True, markup=False)
         console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'results.json'}, "
                       f"report: {out / 'report.html'}")

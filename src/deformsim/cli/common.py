@@ -1,10 +1,13 @@
-"""Shared CLI plumbing: the console, one-line errors instead of tracebacks, and SIGTERM handled like Ctrl-C."""
+"""Shared CLI plumbing: a command's options as an Engine, the console, one-line errors instead of tracebacks,
+and SIGTERM handled like Ctrl-C."""
 
 from __future__ import annotations
 
 import functools
 import signal
 import sys
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import typer
@@ -13,7 +16,7 @@ from rich.console import Console
 from deformsim.dataset.images import REAL_RULE as REAL_HELP
 from deformsim.errors import UserError
 
-__all__ = ["REAL_HELP", "console", "err_console", "fail_cleanly", "load_cli_config"]
+__all__ = ["REAL_HELP", "ConfigArgs", "console", "err_console", "fail_cleanly", "note", "parse_sets", "plain_engine"]
 
 console = Console()
 err_console = Console(stderr=True)
@@ -73,13 +76,52 @@ def _escape(text: str) -> str:
     return escape(text)
 
 
-def load_cli_config(source: str | Path | None, flags: dict[str, tuple[str, object]]):
-    """The config from ``source`` with command-line values applied.
+@dataclass(frozen=True)
+class ConfigArgs:
+    """What a command's options say about its config: the YAML file or preset, and the config keys they set.
 
     ``flags`` maps each flag (``"--n"``) to its dotted config key and value (None: not given); a bad value is
-    reported as the flag the user typed, not as the config file.
+    reported as the flag the user typed, not as the config file. ``overrides`` sets dotted keys that no flag
+    names (a bad value is reported as ``override KEY``); a given flag wins over an override of the same key.
     """
-    from deformsim.config import load_config
 
-    return load_config(source, {key: value for key, value in flags.values()},
-                       flags={key: flag for flag, (key, _) in flags.items()})
+    source: str | Path | None = None
+    flags: dict[str, tuple[str, object]] = field(default_factory=dict)
+    overrides: dict[str, object] = field(default_factory=dict)
+
+    def engine(self, progress: bool = True, notify: Callable[[str], None] | None = None):
+        """The :class:`deformsim.api.Engine` of this config."""
+        from deformsim.api import Engine
+
+        given = {flag: (key, value) for flag, (key, value) in self.flags.items() if value is not None}
+        return Engine(self.source, {**self.overrides, **dict(given.values())}, progress=progress,
+                      flags={key: flag for flag, (key, _) in given.items()}, notify=notify)
+
+
+def plain_engine(progress: bool = True, overrides: dict | None = None, notify: Callable[[str], None] | None = None):
+    """An Engine for a command that reads no config: the default settings, no file read."""
+    from deformsim.api import Engine
+    from deformsim.config import Config
+
+    return Engine(Config(), overrides, progress=progress, notify=notify)
+
+
+def parse_sets(items: list[str]) -> dict:
+    """``["train.epochs=5", ...]`` (``--set`` options) as dotted overrides; values are read as YAML scalars or lists."""
+    import yaml
+
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise UserError(f"--set {item!r}: expected KEY=VALUE, e.g. train.epochs=5")
+        try:
+            out[key.strip()] = yaml.safe_load(value)
+        except yaml.YAMLError:
+            raise UserError(f"--set {item!r}: the value is not valid YAML") from None
+    return out
+
+
+def note(target: Console) -> Callable[[str], None]:
+    """Print an Engine's notes on ``target`` (the console or the error console)."""
+    return lambda line: target.print(line, highlight=False, soft_wrap=True)

@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import console, err_console, fail_cleanly, load_cli_config
+from deformsim.cli.common import ConfigArgs, console, err_console, fail_cleanly
 
 
 def register(app: typer.Typer) -> None:
@@ -37,24 +37,22 @@ def register(app: typer.Typer) -> None:
         import pandas as pd
 
         from deformsim.composite.backgrounds import BackgroundWarning
-        from deformsim.composite.stage import composite as run
         from deformsim.dataset.layout import Layout
 
         own = Layout(out).config
-        source = config or (str(own) if own.is_file() else None)
-        cfg = load_cli_config(source, {
+        engine = ConfigArgs(config or (str(own) if own.is_file() else None), {
             "--backgrounds": ("composite.backgrounds", str(backgrounds) if backgrounds else None),
             "--matte": ("composite.matte", matte), "--workers": ("composite.workers", workers),
-        }).composite
+        }).engine(progress)
         with warnings.catch_warnings():
             warnings.simplefilter("always", BackgroundWarning)
             warnings.showwarning = lambda message, *a, **k: err_console.print(
                 f"[yellow]warning:[/] {message}", highlight=False, soft_wrap=True
             )
-            variant = run(out, cfg, name, seed, progress=progress)
+            variant = engine.composite(out, name, seed)
         df = pd.read_parquet(variant / "manifest.parquet")
         iou = df["matte_iou"].dropna()
         quality = f"; matte IoU vs exact alpha: mean {iou.mean():.4f}, min {iou.min():.4f}" if len(iou) else ""
         scenes = int((df["background"] == "surface").sum()) if "background" in df.columns else 0
         shown = f", {scenes} of them rendered surface scenes" if scenes else ""
-        console.print(f"[bold]{len(df)}[/] composites ({cfg.matte} matte{shown}) in {variant}{quality}")
+        console.print(f"[bold]{len(df)}[/] composites ({engine.config.composite.matte} matte{shown}) in {variant}{quality}")

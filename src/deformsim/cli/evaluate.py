@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import REAL_HELP, console, err_console, fail_cleanly, load_cli_config
+from deformsim.cli.common import REAL_HELP, ConfigArgs, console, err_console, fail_cleanly, note, plain_engine
 
 
 def _print_metrics(title: str, m: dict) -> None:
@@ -36,22 +36,11 @@ def register(app: typer.Typer) -> None:
         out: Optional[Path] = typer.Option(None, "--out", "-o", help="write metrics and predictions to this JSON"),
     ) -> None:
         """Print a trained model's accuracy, F1, precision, recall and confusion matrix on a test set."""
-        from deformsim.atomic import write_json
-        from deformsim.evaluate.experiments import evaluate_model
-        from deformsim.outputs import check_file_target
-
-        if out is not None:
-            check_file_target(out, "--out")
-        if real is not None:
-            _found(real)
-        what = real if real is not None else f"{data} / {variant}"
-        err_console.print(f"testing {model_dir} on {what} (a progress bar follows on a terminal)",
-                          highlight=False, soft_wrap=True)
-        result = evaluate_model(model_dir, data, variant, real, threshold)
+        engine = plain_engine(notify=note(err_console))
+        result = engine.evaluate(model_dir, data, variant, real, threshold, out=out)
         part = " (held-out part of its training split)" if result["held_out"] else ""
         _print_metrics(f"{model_dir} on {result['test']}{part}", result["metrics"])
         if out is not None:
-            write_json(out, result)
             console.print(f"metrics: {out}")
 
     @app.command("report")
@@ -71,22 +60,7 @@ def register(app: typer.Typer) -> None:
 
         An existing report in --out is replaced only when it was made with the same settings and inputs, or with
         --overwrite; the new one is built beside it and swapped in whole (no old models or plots are left)."""
-        from deformsim.outputs import check_folder_target
-        from deformsim.pipeline import make_report
-
-        out = out if out is not None else data / "report"
-        check_folder_target(out, "--out")
         names = [v.strip() for v in variants.split(",") if v.strip()] if variants is not None else None
-        cfg = load_cli_config(config, {"--variants": ("train.variants", names), "--epochs": ("train.epochs", epochs),
-                                       "--weights": ("train.weights", weights)})
-        if real is not None:
-            _found(real)
-        path = make_report(data, cfg.train, out, real=real, overwrite=overwrite, progress=progress)
-        console.print(f"report: {path}")
-
-
-def _found(real: Path) -> None:
-    """Say what a labelled photo folder holds, where (the folder rule is in --help)."""
-    from deformsim.dataset.real import describe, real_table
-
-    err_console.print(f"real photos in {describe(real_table(real), real)}", highlight=False, soft_wrap=True)
+        engine = ConfigArgs(config, {"--variants": ("train.variants", names), "--epochs": ("train.epochs", epochs),
+                                     "--weights": ("train.weights", weights)}).engine(progress, note(err_console))
+        console.print(f"report: {engine.report(data, out, real, overwrite=overwrite)}")

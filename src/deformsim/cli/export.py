@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import console, fail_cleanly
+from deformsim.cli.common import console, fail_cleanly, plain_engine
 
 
 def register(app: typer.Typer) -> None:
@@ -24,9 +24,7 @@ def register(app: typer.Typer) -> None:
         progress: bool = typer.Option(True, "--progress/--no-progress"),
     ) -> None:
         """Export a variant's images (and masks) for torchvision/Hugging Face, COCO tools or anomalib."""
-        from deformsim.export import export_data as run
-
-        result = run(data, out, fmt, variant, overwrite=overwrite, progress=progress)
+        result = plain_engine(progress).export_data(data, out, fmt, variant, overwrite=overwrite)
         s = result.summary
         copied = s["images"] - s["linked"]
         how = f"{s['linked']} hard-linked" + (f", {copied} copied" if copied else "")

@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import console, fail_cleanly, load_cli_config
+from deformsim.cli.common import ConfigArgs, console, fail_cleanly
 
 
 def generate(
@@ -34,16 +34,13 @@ def generate(
     Rerunning on the same folder resumes, or extends it with a larger --n. A folder rendered with other
     settings, another mesh or spec content, or more images than --n is refused unless --overwrite is given,
     which removes it as a whole and renders anew."""
-    from deformsim.generate.stage import generate as run
-
-    cfg = load_cli_config(config, {
+    result = ConfigArgs(config, {
         "--n": ("generate.n", n), "--resolution": ("render.resolution", resolution),
         "--samples": ("render.samples", samples), "--seed": ("generate.seed", seed),
         "--workers": ("generate.workers", workers), "--device": ("render.device", device),
         "--object": ("object.mesh", object_), "--spec": ("object.spec", spec), "--backend": ("generate.backend", backend),
         "--address": ("generate.address", address), "--gather": ("generate.gather", gather),
-    })
-    result = run(cfg, out, progress=progress, overwrite=overwrite)
+    }).engine(progress).generate(out, overwrite=overwrite)
     console.print(
         f"[bold]{result.images}[/] images in {out} ({result.rendered} samples rendered now, "
         f"{result.seconds:.0f} s{', ' + result.device if result.device else ''}); "

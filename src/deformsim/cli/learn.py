@@ -1,4 +1,4 @@
-"""``deformsim train``, ``predict`` and ``export``: torch is imported inside each command."""
+"""``deformsim train``, ``predict`` and ``export``: torch is imported inside the Engine's methods only."""
 
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from deformsim.cli.common import console, fail_cleanly, load_cli_config
+from deformsim.cli.common import ConfigArgs, console, fail_cleanly, plain_engine
+from deformsim.learn.backbones import BACKBONES
 
 
 def train(
@@ -17,7 +18,7 @@ def train(
     out: Path = typer.Option(..., "--out", help="folder for model.pt and train.json"),
     variant: Optional[str] = typer.Option(None, help="image variant (default: the first of train.variants)"),
     epochs: Optional[int] = typer.Option(None, help="override train.epochs"),
-    backbone: Optional[str] = typer.Option(None, help="override train.backbone (vgg16, mobilenet_v2)"),
+    backbone: Optional[str] = typer.Option(None, help=f"override train.backbone ({', '.join(BACKBONES)})"),
     weights: Optional[str] = typer.Option(None, help="override train.weights (imagenet, offline, none)"),
     device: Optional[str] = typer.Option(None, help="override train.device (auto, cpu, cuda)"),
     target: Optional[str] = typer.Option(
@@ -35,22 +36,17 @@ def train(
 
     An existing model in --out is replaced only when it was trained with the same settings on the same images,
     or with --overwrite; the new one is built beside it and swapped in whole."""
-    from deformsim.dataset.tables import load_table
-    from deformsim.outputs import check_folder_target
-    from deformsim.pipeline import train_model
-
-    check_folder_target(out, "--out")
-    cfg = load_cli_config(config, {"--epochs": ("train.epochs", epochs), "--backbone": ("train.backbone", backbone),
-                                   "--weights": ("train.weights", weights), "--device": ("train.device", device),
-                                   "--target": ("train.target", target)}).train
-    table = load_table(data, variant, cfg.variants[0])
-    result = train_model(table, cfg, out, data, variant or cfg.variants[0], overwrite=overwrite, progress=progress,
-                         adapt=adapt)
+    engine = ConfigArgs(config, {
+        "--epochs": ("train.epochs", epochs), "--backbone": ("train.backbone", backbone),
+        "--weights": ("train.weights", weights), "--device": ("train.device", device), "--target": ("train.target", target),
+    }).engine(progress)
+    result = engine.train(data, out, variant, adapt, overwrite=overwrite)
+    cfg = engine.config.train
     last = result.history[-1]
     name, key = ("acc", "acc") if cfg.target == "label" else (last["metric"], "score")
     val = "n/a" if last[f"val_{key}"] is None else f"{last[f'val_{key}']:.3f}"
     console.print(f"weights: {result.weights}")
-    console.print(f"{len(table)} images, {cfg.epochs} epochs in {result.seconds:.1f} s: "
+    console.print(f"{result.images} images, {cfg.epochs} epochs in {result.seconds:.1f} s: "
                   f"train {name} {last[key]:.3f}, validation {name} {val}")
     console.print(f"saved {result.model_path}")
 
@@ -61,43 +57,13 @@ def predict(
     csv: Optional[Path] = typer.Option(None, "--csv", help="also write path,p_deformed,label to this CSV"),
 ) -> None:
     """Print P(deformed) and the predicted label of each image (or what a --target model predicts)."""
-    from deformsim.dataset.real import expand_images
-    from deformsim.learn.predict import load
-    from deformsim.outputs import check_file_target
-
-    if csv is not None:
-        check_file_target(csv, "--csv")
-    paths = expand_images(images)
-    predictor = load(model_dir)
-    if predictor.target == "label":
-        proba, labels = predictor.predict(paths)
-        columns = {"p_deformed": proba, "label": labels}
-        heads = ("P(deformed)", "label")
-    else:
-        columns, heads = _target_columns(predictor, predictor.predict_outputs(paths))
-    table = Table("image", *heads)
-    for i, p in enumerate(paths):
-        table.add_row(str(p), *(v[i] if isinstance(v[i], str) else f"{v[i]:.4f}" for v in columns.values()))
+    prediction = plain_engine().predict(model_dir, images, csv)
+    table = Table("image", *prediction.headings)
+    for i, p in enumerate(prediction.paths):
+        table.add_row(str(p), *(v[i] if isinstance(v[i], str) else f"{v[i]:.4f}" for v in prediction.columns.values()))
     console.print(table)
-    if csv:
-        import pandas as pd
-
-        from deformsim.atomic import atomic_path
-
-        with atomic_path(csv) as tmp:
-            pd.DataFrame({"path": [str(p) for p in paths], **columns}).to_csv(tmp, index=False)
+    if csv is not None:
         console.print(f"wrote {csv}")
-
-
-def _target_columns(predictor, out) -> tuple[dict, tuple]:
-    """Per-image columns (CSV name -> values) and table headings of a severity, family or localise model's output."""
-    if predictor.target == "severity":
-        return {"max_disp_mm": out}, ("max displacement (mm)",)
-    if predictor.target == "family":
-        return {f"p_{n}": out[:, k] for k, n in enumerate(predictor.outputs)}, tuple(f"P({n})" for n in predictor.outputs)
-    thr = predictor.cfg.threshold
-    return ({"region_fraction": (out >= thr).mean(axis=(1, 2)), "peak": out.max(axis=(1, 2))},
-            ("predicted region (share of image)", "peak P(region)"))
 
 
 def export(
@@ -105,9 +71,7 @@ def export(
     onnx: Path = typer.Option(..., "--onnx", help="output .onnx file"),
 ) -> None:
     """Export a trained model to ONNX (input: 0-1 RGB NCHW; output: P(deformed))."""
-    from deformsim.learn.export import to_onnx
-
-    console.print(f"wrote {to_onnx(model_dir, onnx)}")
+    console.print(f"wrote {plain_engine().export_onnx(model_dir, onnx)}")
 
 
 def register(app: typer.Typer) -> None:

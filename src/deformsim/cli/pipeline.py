@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import REAL_HELP, console, fail_cleanly, load_cli_config
+from deformsim.cli.common import REAL_HELP, ConfigArgs, console, fail_cleanly, note
 
 
 def register(app: typer.Typer) -> None:
@@ -33,19 +33,12 @@ def register(app: typer.Typer) -> None:
         """Generate, composite, train, evaluate and report; stages already up to date are skipped.
 
         Inputs count by content: an edited mesh, spec, background or real photo reruns what depends on it."""
-        from deformsim.pipeline import run
-
-        cfg = load_cli_config(config, {
+        result = ConfigArgs(config, {
             "--object": ("object.mesh", object_), "--spec": ("object.spec", spec), "--n": ("generate.n", n),
             "--resolution": ("render.resolution", resolution), "--samples": ("render.samples", samples),
             "--epochs": ("train.epochs", epochs), "--seed": ("generate.seed", seed),
             "--backgrounds": ("composite.backgrounds", backgrounds),
-        })
-        if real is not None:
-            from deformsim.dataset.real import describe, real_table
-
-            console.print(f"real photos in {describe(real_table(real), real)}", highlight=False, soft_wrap=True)
-        result = run(cfg, out, real=real, progress=progress, overwrite=overwrite)
+        }).engine(progress, note(console)).run(out, real, overwrite=overwrite)
         for name, secs in result.seconds.items():
             console.print(f"  {name:<24} {secs:7.1f} s")
         if result.skipped:

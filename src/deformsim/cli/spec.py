@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import console, err_console, fail_cleanly
+from deformsim.cli.common import console, err_console, fail_cleanly, plain_engine
 
 
 def register(app: typer.Typer) -> None:
@@ -21,22 +21,16 @@ def register(app: typer.Typer) -> None:
         object_: Optional[Path] = typer.Option(None, "--object", help="the mesh the spec is for"),
     ) -> None:
         """Validate a spec (and its mesh) without rendering anything."""
-        from deformsim.generate.probe import probe_mesh
-        from deformsim.spec.model import check_mesh_file, load_spec, units_hint
-
-        spec = load_spec(file)
-        mesh, hint = "", None
-        if object_ is not None:
-            check_mesh_file(object_)
-            size = probe_mesh(object_, file)["size"]
-            mesh = f"; mesh {object_.name}: {' x '.join(f'{v * 1000:.0f}' for v in size)} mm"
-            hint = units_hint(size, spec)
+        checked = plain_engine().spec_check(file, object_)
+        spec, mesh = checked.spec, ""
+        if checked.size is not None:
+            mesh = f"; mesh {object_.name}: {' x '.join(f'{v * 1000:.0f}' for v in checked.size)} mm"
         console.print(
             f"[green]ok[/] {file}: '{spec.name}', {len(spec.families)} families, {len(spec.key_names)} keys, "
             f"{len(spec.texture_names)} displacement textures, lattice {'x'.join(map(str, spec.lattice.points))}{mesh}"
         )
-        if hint:
-            err_console.print(f"[yellow]hint:[/] {hint}", highlight=False, soft_wrap=True)
+        if checked.hint:
+            err_console.print(f"[yellow]hint:[/] {checked.hint}", highlight=False, soft_wrap=True)
 
     @spec_app.command("preview")
     @fail_cleanly
@@ -48,10 +42,4 @@ def register(app: typer.Typer) -> None:
         samples: int = typer.Option(16, help="Cycles samples per pixel"),
     ) -> None:
         """Render the rest shape and each key at full weight into one labelled image."""
-        from deformsim.generate.spec_preview import render_preview
-        from deformsim.outputs import check_file_target
-
-        check_file_target(out, "--out")  # before rendering
-
-        path = render_preview(file, object_, out, resolution, samples)
-        console.print(f"spec preview: {path}")
+        console.print(f"spec preview: {plain_engine().spec_preview(file, object_, out, resolution, samples)}")

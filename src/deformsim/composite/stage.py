@@ -3,21 +3,20 @@
 A variant is ``OUT/variants/NAME/`` with ``images/ID.png``, ``manifest.parquet`` (``id``, ``image`` and what
 went into each composite) and ``composite.json`` (the settings); for a dataset with dense maps also
 ``{mask,deform,region}/ID.png``, moved exactly like the part (:mod:`deformsim.composite.maps`). Each image
-draws from its own generator ``default_rng([seed, stable_int(id)])``, so the result does not depend on the
-number of workers. The variant is built in a staging folder and swapped in only when complete. Optional
+draws from its own streams (:mod:`deformsim.sampling.streams`, keyed by the image id), so the result does not depend
+on the number of workers. The variant is built in a staging folder and swapped in only when complete. Optional
 steps, each recorded per image: a class-balanced choice of background photo, framing around the object
-(:mod:`deformsim.composite.framing`), a left-right flip of the part (``flip_part``, from a generator of its own)
+(:mod:`deformsim.composite.framing`), a left-right flip of the part (``flip_part``, from a stream of its own)
 and camera effects (:mod:`deformsim.composite.effects`). With ``composite.surface`` a share of the images (drawn
-per image from a generator of its own) shows the dataset's rendered surface scene (``render.surface``) instead:
+per image from a stream of its own) shows the dataset's rendered surface scene (``render.surface``) instead:
 no matte and no background, framed, flipped and with effects like the rest. With the alpha matte, a dataset rendered with
 ``render.shadow`` also gets the part's shadow: the background behind the part is multiplied by
 ``1 - strength * shadow`` (the shadow map moved like the part, bilinear; ``strength`` drawn per image from
-``shadow_strength`` with a generator of its own) before the part is laid over it. The chroma keys ignore it.
+``shadow_strength``, from a stream of its own) before the part is laid over it. The chroma keys ignore it.
 """
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import re
@@ -51,20 +50,13 @@ from deformsim.dataset.variants import VARIANT_MANIFEST
 from deformsim.errors import UserError
 from deformsim.log import progress_bar
 from deformsim.parallel import worker_count
+from deformsim.sampling.streams import stable_int, stream
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 _STATE: dict = {}
 
 
-def stable_int(iid: str) -> int:
-    """A process-independent 64-bit integer for an image id (unlike ``hash``)."""
-    return int.from_bytes(hashlib.blake2b(iid.encode(), digest_size=8).digest(), "little")
-
-
 SETTINGS_FILE = "composite.json"
-FLIP_STREAM = 0xF11F  # the part flip's own generator, so turning it on moves no other draw
-SHADOW_STREAM = 0x5AAD  # the shadow strength's own generator, likewise
-SURFACE_STREAM = 0x5CE7  # the choice of the rendered surface scene's own generator, likewise
 
 
 def variant_settings(name: str, seed: int, cfg: CompositeConfig) -> dict:
@@ -120,7 +112,7 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
 
 def balanced_photos(ids: list[str], labels: list[int], n_photos: int, seed: int) -> dict[str, int]:
     """Image id -> photo index, each photo used equally often (to within one) behind every class."""
-    rng = np.random.default_rng([seed, 0xBA1A])
+    rng = stream("balance", seed)
     out = {}
     for y in sorted(set(labels)):
         members = sorted((i for i, label in zip(ids, labels) if label == y), key=stable_int)
@@ -214,7 +206,7 @@ def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | 
     """Matte, background and composite one image (worker side); writes it (and its moved maps) and returns its
     manifest row. ``shadow``: the part's shadow map (alpha matte only); ``scene``: the rendered surface scene,
     shown whole instead with probability ``composite.surface``."""
-    cfg, rng = _STATE["cfg"], np.random.default_rng([_STATE["seed"], stable_int(iid)])
+    cfg, rng = _STATE["cfg"], stream("image", _STATE["seed"], stable_int(iid))
     if scene is not None and use_surface(_STATE["seed"], iid, cfg.surface):
         return _surface_one(iid, scene, exact, maps, rng, cfg)
     if cfg.matte == "alpha":
@@ -286,18 +278,18 @@ def _finish(iid: str, img: np.ndarray, rng: np.random.Generator, cfg: CompositeC
 
 
 def use_surface(seed: int, iid: str, p: float) -> bool:
-    """Whether image ``iid`` shows its rendered surface scene: probability ``p``, from a generator of its own."""
-    return bool(p >= 1 or (p > 0 and np.random.default_rng([seed, stable_int(iid), SURFACE_STREAM]).random() < p))
+    """Whether image ``iid`` shows its rendered surface scene: probability ``p``, from stream "scene"."""
+    return bool(p >= 1 or (p > 0 and stream("scene", seed, stable_int(iid)).random() < p))
 
 
 def part_flip(seed: int, iid: str, p: float) -> bool:
-    """Whether image ``iid`` shows its part mirrored: probability ``p``, from the flip's own generator."""
-    return bool(p > 0 and np.random.default_rng([seed, stable_int(iid), FLIP_STREAM]).random() < p)
+    """Whether image ``iid`` shows its part mirrored: probability ``p``, from stream "flip"."""
+    return bool(p > 0 and stream("flip", seed, stable_int(iid)).random() < p)
 
 
 def shadow_strength(seed: int, iid: str, r: tuple[float, float]) -> float:
-    """How strongly image ``iid``'s shadow darkens the background: uniform in ``r``, from its own generator."""
-    return float(r[0]) if r[0] == r[1] else float(np.random.default_rng([seed, stable_int(iid), SHADOW_STREAM]).uniform(*r))
+    """How strongly image ``iid``'s shadow darkens the background: uniform in ``r``, from stream "shadow"."""
+    return float(r[0]) if r[0] == r[1] else float(stream("shadow", seed, stable_int(iid)).uniform(*r))
 
 
 def read_shadow(path: str, shape: tuple[int, int]) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Dense ground-truth maps written beside each render (issue 14): encode, write and read them back.
+"""Dense ground-truth maps written beside each render: encode, write and read them back.
 
 Formats (``images/KIND/ID.png``, one per :data:`deformsim.dataset.layout.DENSE_KINDS`):
 

@@ -69,7 +69,7 @@ def aggregate(runs: list[dict]) -> dict[str, dict]:
 
 
 def format_table(summary: dict[str, dict], baseline: float) -> str:
-    """The results as a Markdown table (mean +- std), for the terminal and README.md."""
+    """The results as a Markdown table (mean +- std), for the terminal and docs/benchmarks.md."""
     head = "| trained on | runs | real accuracy | real F1 | precision | recall | synthetic accuracy |"
     lines = [head, "|---|---|---|---|---|---|---|"]
     for variant, r in summary.items():
@@ -95,7 +95,8 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     from deformsim.dataset.variants import variant_table
     from deformsim.evaluate.experiments import grouped_split
     from deformsim.evaluate.metrics import compute_metrics
-    from deformsim.generate.stage import data_name, generate, prepare
+    from deformsim.generate.identity import data_name
+    from deformsim.generate.stage import generate, prepare
     from deformsim.identity import digest
     from deformsim.learn.predict import load
     from deformsim.learn.train import fit

@@ -1,4 +1,4 @@
-"""Metrics of the dense-label heads (issue 14), pure numpy: severity, deformation families, region masks.
+"""Metrics of the dense-label heads, pure numpy: severity, deformation families, region masks.
 
 - severity: mean absolute error and RMSE in mm, Spearman's rank correlation, and the error of always answering
   the training images' mean (the baseline a model must beat);

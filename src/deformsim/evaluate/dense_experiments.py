@@ -1,4 +1,4 @@
-"""The report's dense-label part (issue 14): severity, family and localise heads on one training variant.
+"""The report's dense-label part: severity, family and localise heads on one training variant.
 
 On a dataset with dense labels the three heads of :mod:`deformsim.learn.targets` train on the training part of
 the label experiments' grouped split of one variant (the first composited variant of ``train.variants`` whose

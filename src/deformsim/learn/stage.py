@@ -1,0 +1,51 @@
+"""The training stage: a model trained on a dataset variant (or a photo folder) and put into its own folder.
+
+The folder is refused when it holds one trained with other settings or images (unless ``overwrite``); the new
+model is built beside it and swapped in whole.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+from deformsim.config import TrainConfig
+from deformsim.identity import digest, files_digest
+from deformsim.learn.train import TrainResult
+from deformsim.outputs import check_folder_target, claim, replacing
+
+
+@dataclass
+class TrainedModel(TrainResult):
+    """:class:`TrainResult` of a model in its folder, with the number of images it was trained and validated on."""
+
+    images: int
+
+
+def images_digest(table, root: Path) -> str:
+    """A training table's images by content, names (relative to ``root``) and labels."""
+    return digest([files_digest(list(table["path"]), root), [int(y) for y in table["y"]]])
+
+
+def train_model(data: Path, cfg: TrainConfig, out: Path, variant: str | None = None, overwrite: bool = False,
+                progress: bool = True, adapt: Path | None = None) -> TrainedModel:
+    """:func:`deformsim.learn.train.fit` on ``data`` into the folder ``out``.
+
+    ``data`` is a generated dataset (its ``variant``, default the first of ``cfg.variants``) or a folder of
+    intact/ and deformed/ photos. Refused with one line when ``out`` is a file, holds files but no model, or
+    holds a model trained with other settings or images (unless ``overwrite``).
+    """
+    from deformsim.dataset.tables import check_table, load_table
+    from deformsim.learn.checkpoint import MODEL_FILE
+    from deformsim.learn.train import fit
+
+    out = check_folder_target(out, "--out")
+    table = load_table(data, variant, cfg.variants[0])
+    check_table(table)
+    identity = {"settings": cfg.model_dump(mode="json"),
+                "inputs": {"variant": variant or cfg.variants[0], "images": images_digest(table, data)}}
+    claim(out, "model", identity, overwrite)
+    with replacing(out, identity, "model") as tmp:
+        result = fit(table, cfg, tmp, progress=progress, adapt=adapt)
+    trained = {f.name: getattr(result, f.name) for f in fields(result)}
+    return TrainedModel(**{**trained, "model_path": out / MODEL_FILE}, images=len(table))

@@ -1,0 +1,124 @@
+"""The draws of the optional parts of a sample, each from a stream of its own (:mod:`deformsim.sampling.streams`),
+so a config without the option draws exactly what it drew without it, and turning one on moves no other draw."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from deformsim.config import Config
+from deformsim.sampling.params import CameraParams, LightParams, SurfaceParams
+from deformsim.sampling.photos import surface_photos
+from deformsim.sampling.streams import stream
+from deformsim.sampling.tables import CUT_SIDES, LIGHT_KINDS, SURFACE_COLOURS
+from deformsim.spec.model import Spec
+
+
+def draw_source(index: int, seed: int, cfg: Config, spec: Spec) -> tuple[str, str, float]:
+    """(source, bank entry, amount) of a deformed sample: "lattice", "bank" or "both" by ``deform.sources``;
+    a run that never uses the bank draws nothing here."""
+    w = cfg.deform.sources
+    if not w.uses_bank:
+        return "lattice", "", 0.0
+    rng = stream("source", seed, index)
+    weights = np.array([w.lattice, w.bank, w.both])
+    source = ("lattice", "bank", "both")[int(rng.choice(3, p=weights / weights.sum()))]
+    scenario = spec.simulation.scenarios[int(rng.integers(len(spec.simulation.scenarios)))]
+    entry = f"{scenario.name}/{int(rng.integers(scenario.variants))}"
+    amount = float(rng.uniform(*cfg.deform.bank_amount))
+    return (source, entry, amount) if source != "lattice" else (source, "", 0.0)
+
+
+def draw_drop(index: int, seed: int, upright: float) -> tuple[float, float, float, float]:
+    """``pose.mode`` drop: the start orientation (unit quaternion w, x, y, z). With probability ``upright`` the part
+    starts standing on one of its ends (either, tilted up to 15 degrees, any turn about the vertical), else in a
+    uniformly random orientation."""
+    rng = stream("drop", seed, index)
+    q = rng.normal(size=4)
+    stand, flip = rng.uniform() < upright, rng.uniform() < 0.5
+    yaw, tilt, axis = rng.uniform(0, 2 * np.pi), np.radians(rng.uniform(0, 15)), rng.uniform(0, 2 * np.pi)
+    if stand:
+        tilt = tilt + np.pi if flip else tilt
+        a, t = yaw / 2, tilt / 2
+        qz = np.array([np.cos(a), 0.0, 0.0, np.sin(a)])  # turn about the vertical, then tilt
+        qt = np.array([np.cos(t), np.sin(t) * np.cos(axis), np.sin(t) * np.sin(axis), 0.0])
+        w1, x1, y1, z1 = qt
+        w2, x2, y2, z2 = qz
+        q = np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                      w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+    q = q / np.linalg.norm(q) * (1.0 if q[0] >= 0 else -1.0)
+    return tuple(float(v) for v in q)
+
+
+def draw_lights(index: int, seed: int, cfg: Config, cameras: tuple[CameraParams, ...]) -> tuple[LightParams, ...]:
+    """``lighting.area_lights``: the sample's area lights. A ring light goes on the axis of one of ``cameras``."""
+    a = cfg.lighting.area_lights
+    if a.count[1] == 0:
+        return ()
+    rng = stream("lights", seed, index)
+    lights = []
+    for _ in range(int(rng.integers(a.count[0], a.count[1] + 1))):
+        kind = a.kinds[int(rng.integers(len(a.kinds)))]
+        g = LIGHT_KINDS[kind]
+        size = float(rng.uniform(*g["size"]))
+        size_y = size * float(rng.uniform(*g["aspect"]))
+        spin = float(rng.uniform(0, 180)) if kind != "ring" else 0.0
+        dist = float(rng.uniform(*g["distance"]))
+        elevation = float(rng.uniform(*g["elevation"]))
+        azimuth = float(rng.uniform(0, 360))
+        if kind == "ring":  # behind camera k on its axis: distance and elevation relative to the camera's
+            cam = cameras[int(rng.integers(len(cameras)))]
+            azimuth = cam.azimuth + float(rng.uniform(-4.0, 4.0))
+            elevation += 90.0 - cam.polar
+            dist *= cam.radius
+        power = float(rng.uniform(*a.power)) * dist**2  # watts at 1 m -> watts at this distance
+        lights.append(LightParams(kind=kind, azimuth=azimuth % 360.0, elevation=elevation, distance=dist, size=size,
+                                  size_y=size_y, spin=spin, power=power,
+                                  temperature=float(rng.uniform(*a.temperature))))
+    return tuple(lights)
+
+
+def draw_surface(index: int, seed: int, cfg: Config, photos: list[str] | None = None) -> SurfaceParams | None:
+    """``render.surface``: the sample's ground. ``photos``: :func:`surface_photos` of the config's folder."""
+    s = cfg.render.surface
+    if s is None:
+        return None
+    rng = stream("surface", seed, index)
+    kind = s.kinds[int(rng.integers(len(s.kinds)))]
+    c = SURFACE_COLOURS[kind]
+    hue, sat, val, rough = (float(rng.uniform(*c[k])) for k in ("hue", "saturation", "value", "roughness"))
+    scale = float(np.exp(rng.uniform(np.log(s.scale[0]), np.log(s.scale[1]))))
+    rotation, offset = float(rng.uniform(0, 360)), (float(rng.uniform()), float(rng.uniform()))
+    photo = ""
+    if kind == "photo":
+        photos = photos if photos is not None else surface_photos(s.photos)
+        photo = photos[int(rng.integers(len(photos)))]
+    return SurfaceParams(kind=kind, hue=hue, saturation=sat, value=val, roughness=rough, scale=scale,
+                         rotation=rotation, offset=offset, photo=photo)
+
+
+def draw_framing(index: int, seed: int, cfg: Config, cameras: tuple[CameraParams, ...]) -> tuple[CameraParams, ...]:
+    """``camera.fill``, ``offset``, ``partial``, a ``lens_mm`` range and ``fstop``: each image's framing; ``cameras``
+    unchanged when all are off. Every image takes the same draws whichever options are on, so turning one on
+    leaves the others' values as they were. f-numbers are drawn log-uniformly (stops are a ratio scale)."""
+    c = cfg.camera
+    if not c.framing:
+        return cameras
+    rng = stream("framing", seed, index)
+    out = []
+    for cam in cameras:
+        u = rng.uniform(size=8)
+        fill = float(c.fill[0] + (c.fill[1] - c.fill[0]) * u[0]) if c.fill is not None else 0.0
+        sx, sy = (float(c.offset * (2 * v - 1)) if c.offset > 0 else 0.0 for v in u[1:3])
+        cut, side = 0.0, ""
+        if c.partial > 0:
+            cut_now = u[3] < c.partial
+            cut = float(0.1 + 0.3 * u[4]) if cut_now else 0.0
+            side = CUT_SIDES[min(int(u[5] * 4), 3)] if cut_now else "none"
+        lens = float(c.lens_mm[0] + (c.lens_mm[1] - c.lens_mm[0]) * u[6]) if isinstance(c.lens_mm, tuple) else 0.0
+        fstop = 0.0
+        if c.fstop is not None:
+            fstop = float(np.exp(np.log(c.fstop[0]) + (np.log(c.fstop[1]) - np.log(c.fstop[0])) * u[7]))
+        out.append(replace(cam, fill=fill, shift_x=sx, shift_y=sy, cut=cut, cut_side=side, lens=lens, fstop=fstop))
+    return tuple(out)

@@ -1,0 +1,114 @@
+"""The drawn parameters of a sample: what the driver sends a worker and a sample's record keeps."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from deformsim.sampling.records import Record, optional
+
+
+@dataclass(frozen=True)
+class CameraParams(Record):
+    """One camera image's view. The fields after ``radius`` are the per-image framing (``camera.fill``,
+    ``offset``, ``partial``, a ``lens_mm`` range, ``fstop``: :func:`~deformsim.sampling.draws.draw_framing`); their
+    defaults mean off, and the record leaves them out while off."""
+
+    azimuth: float  # degrees
+    polar: float  # degrees from the up axis
+    radius: float  # metres (for the can; scaled with the object's size otherwise); unused when fill > 0
+    fill: float = optional(0.0)  # fraction of the frame side the part's 2D box (longer side) fills; 0 = by radius
+    shift_x: float = optional(0.0)  # the part's box centre right of the frame centre, fraction of the frame side
+    shift_y: float = optional(0.0)  # ... above the frame centre
+    cut: float = optional(0.0)  # share of the part's box past the frame border (camera.partial); 0 = whole part in frame
+    cut_side: str = optional("")  # "left" | "right" | "top" | "bottom" the box crosses; "none": not cut; "": partial off
+    lens: float = optional(0.0)  # focal length (mm); 0 = camera.lens_mm
+    fstop: float = optional(0.0)  # aperture f-number of the depth of field, focused on the part's centre; 0 = no DOF
+
+    @property
+    def framed(self) -> bool:
+        """Placed by the part's projected box (fill, offset or partial), not only aimed at its centre."""
+        return self.fill > 0 or self.shift_x != 0 or self.shift_y != 0 or self.cut_side != ""
+
+
+@dataclass(frozen=True)
+class CanDesign(Record):
+    """The artwork printed on the can's side wall (drawn by :mod:`deformsim.blender.can_label`)."""
+
+    hue: float
+    saturation: float
+    value: float
+    accent_hue: float
+    bands: int
+    band_seed: int
+    word: str
+
+
+@dataclass(frozen=True)
+class MaterialParams(Record):
+    """A user mesh's surface colour and roughness."""
+
+    color: tuple[float, float, float]
+    roughness: float
+
+
+@dataclass(frozen=True)
+class LightParams(Record):
+    """One area light (``lighting.area_lights``), placed on a sphere around the part's centre and aimed at it.
+    Lengths are metres for the built-in can and scale with the part, like :attr:`CameraParams.radius`."""
+
+    kind: str  # "softbox" | "ring" | "window"
+    azimuth: float  # degrees about +Z from +X
+    elevation: float  # degrees above the horizontal through the part's centre
+    distance: float  # metres from the part's centre
+    size: float  # metres: the rectangle's width or the disk's diameter
+    size_y: float  # metres: the rectangle's height (= size for a disk)
+    spin: float  # degrees: rotation of the rectangle about its own axis
+    power: float  # watts given to Blender for the built-in can (times the part's scale squared otherwise)
+    temperature: float  # colour temperature in kelvin
+
+
+@dataclass(frozen=True)
+class SurfaceParams(Record):
+    """The ground the part rests on (``render.surface``): a procedural material or a texture photo."""
+
+    kind: str  # one of config.SURFACE_KINDS
+    hue: float  # 0..1: the surface's colour (HSV), kept plausible per kind by blender.surface
+    saturation: float
+    value: float
+    roughness: float
+    scale: float  # texture scale factor (1 = the kind's natural size at the built-in can's scale)
+    rotation: float  # degrees: the texture's turn about the vertical (grain, weave, ridge direction)
+    offset: tuple[float, float]  # texture shift (fractions of its pattern), so no two samples show the same patch
+    photo: str = ""  # kind photo: the texture photo's path
+
+
+@dataclass(frozen=True)
+class SampleParams(Record):
+    """One sample: a scene state (deformation, openings, label, lighting, pose) seen by each of its cameras."""
+
+    index: int
+    seed: int
+    label: str  # "intact" | "deformed"
+    families: tuple[str, ...]
+    keys: dict[str, float]  # lattice shape-key values, every key of the spec
+    displacement: dict[str, float]  # crinkle shape-key values, every texture of the spec
+    seal: float
+    tab: float
+    hdri: str
+    hdri_rotation: float  # degrees about the up axis
+    hdri_strength: float
+    cameras: tuple[CameraParams, ...]
+    design: CanDesign | None = None
+    material: MaterialParams | None = None
+    extent: float = 0.0
+    pose_tilt: float = 0.0  # degrees away from upright
+    pose_axis: float = 0.0  # azimuth (degrees) of the horizontal axis the object is tilted about
+    bank: str = ""  # simulated bank entry "SCENARIO/I" the sample uses ("" = none)
+    bank_amount: float = 0.0
+    drop_rotation: tuple[float, ...] = ()  # pose.mode drop: start orientation (unit quaternion w, x, y, z); () = tilt
+    lights: tuple[LightParams, ...] = ()  # lighting.area_lights: the sample's area lights; () = HDRI only
+    surface: SurfaceParams | None = None  # render.surface: the ground the part rests on; None = no surface scene
+
+    @property
+    def deformed(self) -> bool:
+        return self.label == "deformed"

@@ -1,0 +1,32 @@
+"""`ConfigArgs`, the one place where a command's flags become config keys, and the `--set` parser."""
+
+from __future__ import annotations
+
+import pytest
+
+from deformsim.cli.common import ConfigArgs, parse_sets
+from deformsim.errors import UserError
+
+
+def test_flags_and_overrides_set_config_keys():
+    engine = ConfigArgs("quick", {"--n": ("generate.n", 16), "--seed": ("generate.seed", None)},
+                        overrides={"generate.seed": 7, "generate.n": 8}).engine(progress=False)
+    cfg = engine.config
+    assert cfg.generate.n == 16 and cfg.generate.seed == 7  # a given flag wins; one not given leaves the override
+    assert engine.progress is False
+
+
+def test_a_bad_value_is_named_by_its_flag_or_its_key():
+    with pytest.raises(UserError, match=r"^--n 3: .*multiple of the 4 cameras"):
+        ConfigArgs("quick", {"--n": ("generate.n", 3)}).engine()
+    with pytest.raises(UserError, match=r"^override train.epochs 0: invalid train.epochs"):
+        ConfigArgs("quick", overrides={"train.epochs": 0}).engine()
+
+
+def test_parse_sets_reads_yaml_values_and_refuses_bad_items():
+    assert parse_sets(["train.epochs=5", "composite.variants=[black, green]"]) == {
+        "train.epochs": 5, "composite.variants": ["black", "green"]}
+    with pytest.raises(UserError, match="expected KEY=VALUE"):
+        parse_sets(["train.epochs"])
+    with pytest.raises(UserError, match="not valid YAML"):
+        parse_sets(["a=["])

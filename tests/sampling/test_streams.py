@@ -1,0 +1,55 @@
+"""The named random streams: each draws what its seed list drew before the registry, names and tails are unique."""
+
+import ast
+import inspect
+
+import pytest
+
+from deformsim.sampling import streams
+from deformsim.sampling.streams import STREAMS, stable_int, stream
+
+SEED, INDEX, IMAGE = 7, 3, "000003_c1"
+# The first uniform of each stream for SEED, sample INDEX and image IMAGE, frozen from the hand-numbered seed lists
+# (default_rng([seed, index, 1..5]), default_rng([seed, stable_int(id), 0xF11F]), ...) the streams replace.
+FIRST = {
+    "sample": 0.9750335537195014,
+    "source": 0.5324211967452813,
+    "drop": 0.8116590994374309,
+    "lights": 0.6916198486052162,
+    "surface": 0.13177165895403264,
+    "framing": 0.04910157400821569,
+    "image": 0.7726612477369958,
+    "flip": 0.23443016294682661,
+    "shadow": 0.45526413157163215,
+    "scene": 0.692219313511429,
+    "balance": 0.5761914198141822,
+}
+KEYS = {"index": INDEX, "image": stable_int(IMAGE)}
+
+
+def test_image_ids_key_their_streams_by_a_stable_64_bit_integer():
+    assert stable_int(IMAGE) == 15176047310193502465
+
+
+@pytest.mark.parametrize("name", sorted(FIRST))
+def test_each_stream_draws_what_it_drew_before(name):
+    keys = [KEYS[k] for k in STREAMS[name].keys]
+    assert stream(name, SEED, *keys).uniform() == FIRST[name]
+
+
+def test_names_and_tails_are_unique_and_each_stream_says_what_it_is_for():
+    table = next(n.value for n in ast.walk(ast.parse(inspect.getsource(streams)))
+                 if isinstance(n, ast.AnnAssign) and getattr(n.target, "id", "") == "STREAMS")
+    names = [k.value for k in table.keys]
+    assert len(names) == len(set(names)) == len(STREAMS)
+    assert len({(s.keys, s.tail) for s in STREAMS.values()}) == len(STREAMS)
+    assert all(set(s.keys) <= set(KEYS) and s.purpose for s in STREAMS.values())
+
+
+def test_a_stream_takes_exactly_its_keys():
+    with pytest.raises(TypeError, match="takes 1 key"):
+        stream("flip", SEED)
+    with pytest.raises(TypeError, match="takes 0 key"):
+        stream("balance", SEED, INDEX)
+    with pytest.raises(KeyError):
+        stream("nope", SEED, INDEX)
