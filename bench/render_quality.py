@@ -36,8 +36,8 @@ from deformsim.hdri import list_hdris
 from deformsim.sampling import sample_params
 from deformsim.spec.model import load_spec
 
-TODAY = {"samples": 32, "denoise": True}  # the paper preset before issue 15 (fixed samples, 6 bounces)
-TODAY_128 = {"samples": 16, "denoise": True}  # the quick preset before issue 15
+TODAY = {"samples": 32, "denoise": True}  # the "today" rows: the paper preset's earlier settings (fixed samples, 6 bounces)
+TODAY_128 = {"samples": 16, "denoise": True}  # the quick preset's settings, the "today" rows at 128 px
 REFERENCE = {"denoise": True, "max_bounces": 16, "diffuse_bounces": 8, "glossy_bounces": 8, "transmission_bounces": 12,
              "transparent_bounces": 8, "clamp_direct": 0.0, "clamp_indirect": 0.0}
 FAST_DN = {"denoise_prefilter": "fast", "denoise_quality": "balanced"}
@@ -141,7 +141,7 @@ def run_resolution(res: int, grid: dict, states: list, args, cfg) -> list[dict]:
     today = TODAY_128 if res <= 128 else TODAY
     base = {**RenderConfig().model_dump(), "resolution": res}  # the defaults: today's settings but samples
     settings = {name: RenderConfig.model_validate({**base, **today, **o}) for name, o in grid.items()}
-    preset = "quick" if res <= 128 else "paper"  # as it is now (after issue 15: the chosen settings), if not today's
+    preset = "quick" if res <= 128 else "paper"  # the preset's chosen settings, if not the "today" ones
     render = load_config(preset, {"render.resolution": res, "render.dense": False, "render.threads": 0}).render
     if render != settings["today"]:
         settings[f"{preset} preset"] = render

@@ -5,7 +5,7 @@
 One worker per setting (none, ``render.shadow``, ``render.surface``, both) renders the same quick-preset samples
 in turn, so machine load falls on all alike; each first renders one warm-up sample that is not counted. Wall time
 per image includes the state changes, the renders, PNG writes and the extra passes per camera (shadow catcher,
-surface scene) with the fresh Cycles session after them (blender.shadow). Dense maps are off in all (``--dense``
+surface scene) with the fresh Cycles session after them (blender.scene.ground). Dense maps are off in all (``--dense``
 turns them on in all).
 """
 

@@ -8,6 +8,7 @@ import pytest
 from deformsim.config import load_config
 from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import rows_for
+from deformsim.dataset.rendered import Rendered
 from deformsim.errors import UserError
 from deformsim.identity import digest
 from deformsim.sampling import LIGHT_KINDS, LightParams, SampleParams, sample_params
@@ -67,6 +68,17 @@ def test_light_draws_respect_the_config(spec):
     assert {lp.kind for i in range(50) for lp in sample_params(i, 1, only, spec, HDRIS).lights} == {"window"}
 
 
+def test_overhead_panels_hang_above_the_part_and_leave_the_default_draws(spec):
+    cfg = load_config("quick", {**LIGHTS, "lighting.area_lights.kinds": ["overhead"]})
+    lights = [lp for i in range(50) for lp in sample_params(i, 1, cfg, spec, HDRIS).lights]
+    assert lights and {lp.kind for lp in lights} == {"overhead"}
+    assert all(lp.elevation >= 75 and lp.size >= 0.6 for lp in lights)  # a large panel nearly straight above
+    default = load_config("quick", LIGHTS)
+    assert "overhead" not in default.lighting.area_lights.kinds
+    assert {lp.kind for i in range(100) for lp in sample_params(i, 1, default, spec, HDRIS).lights} == {
+        "softbox", "ring", "window"}
+
+
 def test_lights_are_deterministic_and_round_trip(spec, tmp_path):
     cfg = load_config("quick", LIGHTS)
     a = [sample_params(i, 7, cfg, spec, HDRIS) for i in range(20)]
@@ -75,7 +87,7 @@ def test_lights_are_deterministic_and_round_trip(spec, tmp_path):
     for p in a:
         back = SampleParams.from_dict(json.loads(json.dumps(p.to_dict())))
         assert back == p and all(isinstance(lp, LightParams) for lp in back.lights)
-    rows = rows_for(a[0], Layout(tmp_path), [0.0] * 4)
+    rows = rows_for(a[0], Layout(tmp_path), Rendered(a[0].index, [0.0] * 4))
     assert [LightParams(**d) for d in json.loads(rows[0]["lights"])] == list(a[0].lights)
     assert SampleParams.from_dict({k: v for k, v in a[0].to_dict().items() if k != "lights"}).lights == ()
 

@@ -9,6 +9,7 @@ import pytest
 from deformsim.config import load_config
 from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import rows_for
+from deformsim.dataset.rendered import Rendered
 from deformsim.sampling import SampleParams, draw_drop, sample_params
 from deformsim.spec.model import load_spec
 
@@ -73,18 +74,18 @@ def test_drop_upright_share_starts_standing_on_an_end():
 def test_manifest_records_the_drop_columns_only_in_drop_mode(tmp_path):
     spec, layout = load_spec(), Layout(tmp_path)
     p = sample_params(0, 1, load_config("quick"), spec, HDRIS)
-    row = rows_for(p, layout, [1.0] * 4)[0]
+    row = rows_for(p, layout, Rendered(p.index, [1.0] * 4))[0]
     assert not any(k.startswith(("drop_", "rest_")) for k in row)
     q = sample_params(0, 1, load_config("quick", {"pose.mode": "drop"}), spec, HDRIS)
     pose = {"rest_qw": 1.0, "rest_qx": 0.0, "rest_qy": 0.0, "rest_qz": 0.0, "rest_tilt": 0.0, "drop_frames": 30,
             "drop_settled": True}
-    row = rows_for(q, layout, [1.0] * 4, pose=pose)[0]
+    row = rows_for(q, layout, Rendered(q.index, [1.0] * 4, sample_columns=pose))[0]
     assert [row[f"drop_q{a}"] for a in "wxyz"] == list(q.drop_rotation)
     assert row["rest_tilt"] == 0.0 and row["drop_settled"] is True
 
 
 def test_tilt_mode_keeps_its_dataset_identity():
-    from deformsim.generate.stage import data_name, data_settings
+    from deformsim.generate.identity import data_name, data_settings
 
     assert data_settings(load_config("quick"))["pose"] == {"tilt": [0.0, 90.0]}  # as before the drop settings
     assert data_settings(load_config("quick", {"pose.drop_frames": 50}))["pose"] == {"tilt": [0.0, 90.0]}

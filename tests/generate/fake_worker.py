@@ -13,6 +13,8 @@ from pathlib import Path
 
 from PIL import Image
 
+from deformsim.dataset.rendered import Rendered
+
 
 def main() -> int:
     proto = os.fdopen(os.dup(1), "w", buffering=1)
@@ -48,7 +50,7 @@ def main() -> int:
                 colour = (p["index"] % 256, shade, c * 40)
                 Image.new("RGBA" if kind == "rgba" else "RGB", (16, 16), colour + ((255,) if kind == "rgba" else ())
                           ).save(path)
-        proto.write(json.dumps({"done": p["index"], "render_seconds": [0.01] * len(p["cameras"])}) + "\n")
+        proto.write(json.dumps(Rendered(p["index"], [0.01] * len(p["cameras"])).to_dict()) + "\n")
     return 0
 
 

@@ -21,19 +21,19 @@ def main() -> int:
     proto = os.fdopen(os.dup(1), "w", buffering=1)
     os.dup2(2, 1)  # Blender's own prints go to stderr
 
-    from deformsim.blender import scene
-    from deformsim.blender.simulate import SimulationError, simulate
+    from deformsim.blender import cycles
+    from deformsim.blender.motion.simulate import SimulationError, simulate
     from deformsim.spec.model import load_spec
     from deformsim.spec.simulation import variants
 
     spec = load_spec(req.get("spec_path"))
-    scene.reset()
+    cycles.reset()
     if req.get("mesh"):
-        from deformsim.blender.mesh_import import import_mesh
+        from deformsim.blender.part.mesh_import import import_mesh
 
         part = import_mesh(req["mesh"], spec)
     else:
-        from deformsim.blender.can import build_can
+        from deformsim.blender.part.can import build_can
 
         part = build_can()
     out = req["out"]

@@ -3,14 +3,13 @@
 JSON lines on stdin, one reply line each on the real stdout (Blender's own prints go to stderr):
 
 - ``{"setup": {"config": {...}, "spec_path": str|null, "out": str, "threads": int, "bank": str|null}}`` builds the
-  scene once (``bank``: a baked bank folder, its entries become shape keys)
+  scene once (``bank``: a baked bank folder, its entries become shape keys) and sets up the render features the
+  config turns on (:mod:`deformsim.blender.features`)
   -> ``{"ready": true, "device": str, "camera_scale": float, "object_size": [dx, dy, dz], "pid": int}``
-- ``{"render": SampleParams.to_dict()}`` -> ``{"done": index, "render_seconds": [...], "dense": [{...}]|null}``
-  (``dense``: each image's dense-map manifest columns, with ``render.dense``; ``pose``: the resting pose's
-  manifest columns with ``pose.mode`` drop, else null; ``"scene": ["shadow", "surface"]``: the
-  extra images written with ``render.shadow`` / ``render.surface``, only when one is on) or
+- ``{"render": SampleParams.to_dict()}`` -> :meth:`deformsim.dataset.rendered.Rendered.to_dict` (``done``: the
+  index, render seconds, the features' image kinds and manifest columns) or
   ``{"error": index, "message": str, "traceback": str}`` (the worker lives on)
-- ``{"configure": RenderConfig dict}`` -> ``{"configured": device}``: new Cycles settings, same scene
+- ``{"configure": RenderConfig dict}`` -> ``{"configured": device}``: new Cycles settings, same scene and features
 - ``{"quit": true}`` -> exit 0 (so does the end of stdin)
 """
 
@@ -37,32 +36,33 @@ def _log(msg: str) -> None:
 
 
 def setup(msg: dict):
-    """Build the scene once: object, materials, rig, world, cameras, Cycles. Returns (ctx, layout, reply)."""
+    """Build the scene once: object, materials, rig, world, cameras, Cycles, then the render features.
+    Returns (ctx, layout, reply)."""
     import bpy
     import numpy as np
 
-    from deformsim.blender import materials
-    from deformsim.blender import scene as scn
-    from deformsim.blender.cameras import make_cameras
-    from deformsim.blender.lights import make_lights
-    from deformsim.blender.pose import make_pivot
-    from deformsim.blender.render import RenderContext
-    from deformsim.blender.rig import build_rig, mesh_bounds
-    from deformsim.blender.world import World
+    from deformsim.blender import cycles
+    from deformsim.blender.feature import RenderContext
+    from deformsim.blender.features import set_up
+    from deformsim.blender.motion.pose import make_pivot
+    from deformsim.blender.motion.rig import build_rig, mesh_bounds
+    from deformsim.blender.part import materials
+    from deformsim.blender.scene.cameras import make_cameras
+    from deformsim.blender.scene.world import World
     from deformsim.config import validate_config
     from deformsim.dataset.layout import Layout
     from deformsim.spec.model import load_spec
 
     cfg = validate_config(msg["config"], "worker config")
     spec = load_spec(msg.get("spec_path"))
-    scn.reset()
+    cycles.reset()
     scene = bpy.context.scene
     if cfg.object.mesh is None:
-        from deformsim.blender import can
+        from deformsim.blender.part import can
 
         obj = can.build_can()  # with its materials: label on the side wall, aluminium lid and bottom
     else:
-        from deformsim.blender.mesh_import import import_mesh
+        from deformsim.blender.part.mesh_import import import_mesh
 
         obj = import_mesh(cfg.object.mesh, spec)
     materials.enable_creases(obj, cfg.render.creases)
@@ -76,23 +76,21 @@ def setup(msg: dict):
         bank = load_bank(msg["bank"])
         rig.load_bank(bank.names, bank.positions)
     pivot = make_pivot(scene, (lo + hi) / 2, [obj, rig.lattice])
-    world = World(scene, cfg.lighting.hdri_dir)
-    make_lights(scene, cfg.lighting.area_lights.count[1])
-    cameras = make_cameras(scene, len(cfg.camera.azimuth_quadrants), cfg.camera.lens_fixed, camera_scale)
-    device = scn.configure_cycles(scene, cfg.render, int(msg.get("threads") or cfg.render.threads))
     ctx = RenderContext(
         cfg=cfg,
         spec=spec,
         scene=scene,
         obj=obj,
         rig=rig,
-        world=world,
-        cameras=cameras,
+        world=World(scene, cfg.lighting.hdri_dir),
+        cameras=make_cameras(scene, len(cfg.camera.azimuth_quadrants), cfg.camera.lens_fixed, camera_scale),
         target=tuple(float(v) for v in (lo + hi) / 2),
         camera_scale=camera_scale,
         pivot=pivot,
         ground=float(lo[2]),
     )
+    device = cycles.configure_cycles(scene, cfg.render, int(msg.get("threads") or cfg.render.threads))
+    ctx.features = set_up(ctx)
     reply = {
         "ready": True,
         "device": device,
@@ -106,30 +104,16 @@ def setup(msg: dict):
 def render(ctx, layout, params: dict) -> dict:
     import bpy
 
-    from deformsim.blender.render import render_sample
+    from deformsim.blender.passes.render import render_sample
     from deformsim.sampling import SampleParams
 
-    p = SampleParams.from_dict(params)
-    seconds, dense = render_sample(ctx, p, layout)
+    rendered = render_sample(ctx, SampleParams.from_dict(params), layout)
     bpy.data.orphans_purge(do_local_ids=True, do_linked_ids=True, do_recursive=True)
-    pose = rest_columns(ctx.rest) if ctx.cfg.pose.mode == "drop" else None
-    reply = {"done": p.index, "render_seconds": seconds, "dense": dense, "pose": pose}
-    if ctx.cfg.render.scene_kinds:  # only then, so that the reply (and the manifest) stays as it was without them
-        reply["scene"] = list(ctx.cfg.render.scene_kinds)
-    return reply
-
-
-def rest_columns(rest) -> dict:
-    """Manifest columns of a dropped part's resting pose (:class:`deformsim.blender.drop.DropResult`)."""
-    from deformsim.blender.drop import up_angle
-
-    qw, qx, qy, qz = (round(float(v), 6) for v in rest.rotation)
-    return {"rest_qw": qw, "rest_qx": qx, "rest_qy": qy, "rest_qz": qz, "rest_tilt": round(up_angle(rest.rotation), 3),
-            "drop_frames": rest.frames, "drop_settled": rest.settled}
+    return rendered.to_dict()
 
 
 def configure(ctx, render: dict) -> dict:
-    from deformsim.blender.scene import configure_cycles
+    from deformsim.blender.cycles import configure_cycles
 
     ctx.cfg.render = render  # validated by the config model
     r = ctx.scene.render

@@ -20,9 +20,8 @@ from pathlib import Path
 
 RENDER_KINDS = ("rgba", "black", "green")
 DENSE_KINDS = ("mask", "depth", "normal", "deform", "region")
-SHADOW_KIND = "shadow"  # render.shadow: the shadow the part casts on the ground (blender.shadow)
-SURFACE_KIND = "surface"  # render.surface: the part resting on a textured ground, rendered whole (blender.surface)
-SCENE_KINDS = (SHADOW_KIND, SURFACE_KIND)  # images a sample has only when its option is on
+SHADOW_KIND = "shadow"  # render.shadow: the shadow the part casts on the ground (blender.scene.shadow)
+SURFACE_KIND = "surface"  # render.surface: the part resting on a textured ground, rendered whole (blender.scene.surface)
 
 
 def image_id(sample: int, camera: int) -> str:

@@ -13,7 +13,8 @@ from pathlib import Path
 import pandas as pd
 
 from deformsim.atomic import atomic_path, write_json
-from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, SCENE_KINDS, Layout, image_id
+from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
+from deformsim.dataset.rendered import Rendered
 from deformsim.errors import UserError
 from deformsim.sampling import SampleParams
 
@@ -21,13 +22,10 @@ from deformsim.sampling import SampleParams
 VOLATILE_COLUMNS = ("render_seconds",)
 
 
-def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camera_scale: float = 1.0,
-             dense: list[dict] | None = None, pose: dict | None = None, scene: tuple[str, ...] = ()) -> list[dict]:
-    """The manifest rows of one sample, one per camera; ``dense``: each image's dense-map columns from the
-    worker (``render.dense``), which add the paths of the maps; ``pose``: the resting pose's columns from the
-    worker (``pose.mode`` drop: ``rest_qw..rest_qz``, ``rest_tilt``, ...); ``scene``: the kinds of
-    :data:`~deformsim.dataset.layout.SCENE_KINDS` the images have (``render.shadow``, ``render.surface``), a path
-    column each; with a surface, ``surface_params`` records the drawn ground."""
+def rows_for(p: SampleParams, layout: Layout, rendered: Rendered, camera_scale: float = 1.0) -> list[dict]:
+    """The manifest rows of one sample, one per camera: its drawn parameters, the worker's columns for the whole
+    sample after its drawn pose (with ``pose.mode`` drop: ``rest_qw..rest_qz``, ``rest_tilt``, ...), the image
+    paths and timing, then each image's columns from the worker's render features (their image paths first)."""
     rows = []
     framing = framing_columns(p)
     for c, cam in enumerate(p.cameras):
@@ -50,7 +48,7 @@ def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camer
             "pose_tilt": p.pose_tilt,
             "pose_axis": p.pose_axis,
             **({f"drop_q{a}": v for a, v in zip("wxyz", p.drop_rotation)} if p.drop_rotation else {}),
-            **(pose or {}),
+            **rendered.sample_columns,
             "hdri": p.hdri,
             "hdri_rotation": p.hdri_rotation,
             "hdri_strength": p.hdri_strength,
@@ -63,13 +61,9 @@ def rows_for(p: SampleParams, layout: Layout, render_seconds: list[float], camer
             "material": json.dumps(p.material.__dict__ if p.material else None, sort_keys=True),
             "lights": json.dumps([lp.__dict__ for lp in p.lights], sort_keys=True),
             **{kind: layout.rel(layout.image(kind, iid)) for kind in RENDER_KINDS},
-            "render_seconds": render_seconds[c],
+            "render_seconds": rendered.render_seconds[c],
+            **(rendered.image_columns[c] if rendered.image_columns else {}),
         }
-        if dense is not None:
-            row.update({kind: layout.rel(layout.image(kind, iid)) for kind in DENSE_KINDS}, **dense[c])
-        row.update({kind: layout.rel(layout.image(kind, iid)) for kind in scene})
-        if p.surface is not None:
-            row["surface_params"] = json.dumps(p.surface.__dict__, sort_keys=True)
         rows.append(row)
     return rows
 
@@ -103,9 +97,14 @@ def read_record(layout: Layout, index: int) -> dict | None:
     except (OSError, ValueError):
         return None
     for row in rec.get("rows", []):
-        if not all((layout.root / row[k]).is_file() for k in (*RENDER_KINDS, *DENSE_KINDS, *SCENE_KINDS) if k in row):
+        if not all((layout.root / path).is_file() for path in image_paths(layout, row)):
             return None
     return rec
+
+
+def image_paths(layout: Layout, row: dict) -> list[str]:
+    """The images a manifest row names: each column named after an image kind whose value is that image's path."""
+    return [v for k, v in row.items() if isinstance(v, str) and v == layout.rel(layout.image(k, row["id"]))]
 
 
 def consolidate(layout: Layout, indices: list[int]) -> pd.DataFrame:

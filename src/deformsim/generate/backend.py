@@ -11,8 +11,9 @@ from pathlib import Path
 
 from deformsim.bank.store import bank_dir
 from deformsim.config import Config
-from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, SCENE_KINDS, Layout
+from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import rows_for, write_record
+from deformsim.dataset.rendered import Rendered
 from deformsim.errors import ResourceError
 from deformsim.log import get_logger
 from deformsim.parallel import worker_count
@@ -42,17 +43,15 @@ def worker_setup(cfg: Config, layout: Layout, bank: Path | None = None) -> dict:
     }
 
 
-def finish_sample(layout: Layout, p: SampleParams, render_seconds: list[float], camera_scale: float,
-                  dense: list[dict] | None = None, pose: dict | None = None, scene: tuple[str, ...] = ()) -> None:
+def finish_sample(layout: Layout, p: SampleParams, rendered: Rendered, camera_scale: float) -> None:
     """Record a rendered sample: its record is what marks it done for a resumed run."""
-    write_record(layout, p, rows_for(p, layout, render_seconds, camera_scale, dense, pose, scene))
+    write_record(layout, p, rows_for(p, layout, rendered, camera_scale))
 
 
 def remove_partial_files(layout: Layout) -> None:
     """Temporary files of an interrupted run (never valid output) are removed before resuming."""
-    for kind in (*RENDER_KINDS, *DENSE_KINDS, *SCENE_KINDS):
-        for tmp in (layout.root / "images" / kind).glob(".*"):
-            tmp.unlink(missing_ok=True)
+    for tmp in (layout.root / "images").glob("*/.*"):
+        tmp.unlink(missing_ok=True)
 
 
 DISK_FULL_TEXT = ("No space left on device", "Disk quota exceeded", "[Errno 28]", "[Errno 122]")

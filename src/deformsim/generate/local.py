@@ -12,6 +12,7 @@ import threading
 
 from deformsim.config import Config
 from deformsim.dataset.layout import Layout
+from deformsim.dataset.rendered import Rendered
 from deformsim.errors import ResourceError, UserError
 from deformsim.generate.backend import (
     Retries,
@@ -96,8 +97,7 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
                 if "error" in reply:
                     retry_or_fail(i, reply.get("message", "render error"))
                     continue
-                finish_sample(layout, params[i], reply["render_seconds"], camera_scale, reply.get("dense"), reply.get("pose"),
-                              tuple(reply.get("scene", ())))
+                finish_sample(layout, params[i], Rendered.from_dict(reply), camera_scale)
                 rendered += views
                 with lock:
                     remaining[0] -= 1

@@ -13,7 +13,7 @@ from deformsim.generate.worker_client import worker_env
 
 def probe_mesh(mesh: Path, spec_path: Path | None, timeout: float = 300) -> dict:
     """Import ``mesh`` in a throwaway Blender process; its size, or a UserError naming the problem."""
-    args = [sys.executable, "-m", "deformsim.blender.mesh_import", str(mesh)] + ([str(spec_path)] if spec_path else [])
+    args = [sys.executable, "-m", "deformsim.blender.part.mesh_import", str(mesh)] + ([str(spec_path)] if spec_path else [])
     proc = subprocess.run(args, capture_output=True, text=True, env=worker_env(), timeout=timeout)
     if proc.returncode == 2:
         raise UserError(proc.stderr.strip().splitlines()[-1])

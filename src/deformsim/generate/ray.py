@@ -14,7 +14,8 @@ from pathlib import Path
 
 from deformsim.atomic import write_bytes
 from deformsim.config import Config
-from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, Layout, image_id
+from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
+from deformsim.dataset.rendered import Rendered
 from deformsim.errors import UserError
 from deformsim.generate.backend import Retries, finish_sample, worker_setup
 from deformsim.log import get_logger, progress_bar
@@ -60,9 +61,9 @@ class RenderActor:
         if self.gather and "done" in reply:
             layout = Layout(self.local)
             files = {}
+            kinds = RENDER_KINDS + Rendered.from_dict(reply).kinds
             for c in range(len(params["cameras"])):
-                kinds = RENDER_KINDS + (DENSE_KINDS if reply.get("dense") else ())
-                for kind in kinds + tuple(reply.get("scene", ())):
+                for kind in kinds:
                     path = layout.image(kind, image_id(params["index"], c))
                     files[layout.rel(path)] = path.read_bytes()
                     path.unlink()
@@ -124,8 +125,7 @@ def run_ray(cfg: Config, layout: Layout, params: dict[int, SampleParams], progre
                     continue
                 for rel, data in reply.get("files", {}).items():
                     write_bytes(layout.root / rel, data)
-                finish_sample(layout, params[i], reply["render_seconds"], reply["camera_scale"], reply.get("dense"),
-                              reply.get("pose"), tuple(reply.get("scene", ())))
+                finish_sample(layout, params[i], Rendered.from_dict(reply), reply["camera_scale"])
                 device = reply.get("device", device)
                 bar.update(views)
         ray.get([a.close.remote() for a in idle])

@@ -64,7 +64,8 @@ class WorkerProcess:
         return reply
 
     def render(self, params: dict, timeout: float | None = None) -> dict:
-        """Render one sample: ``{"done": i, "render_seconds": [...]}`` or ``{"error": i, "message": ...}``."""
+        """Render one sample: a :class:`~deformsim.dataset.rendered.Rendered` dict (``{"done": i, ...}``) or
+        ``{"error": i, "message": ...}``."""
         return self._ask({"render": params}, timeout)
 
     def configure(self, render: dict, timeout: float | None = 60) -> dict:

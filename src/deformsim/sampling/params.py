@@ -32,7 +32,7 @@ class CameraParams(Record):
 
 @dataclass(frozen=True)
 class CanDesign(Record):
-    """The artwork printed on the can's side wall (drawn by :mod:`deformsim.blender.can_label`)."""
+    """The artwork printed on the can's side wall (drawn by :mod:`deformsim.blender.part.can_label`)."""
 
     hue: float
     saturation: float
@@ -56,7 +56,7 @@ class LightParams(Record):
     """One area light (``lighting.area_lights``), placed on a sphere around the part's centre and aimed at it.
     Lengths are metres for the built-in can and scale with the part, like :attr:`CameraParams.radius`."""
 
-    kind: str  # "softbox" | "ring" | "window"
+    kind: str  # "softbox" | "ring" | "window" | "overhead"
     azimuth: float  # degrees about +Z from +X
     elevation: float  # degrees above the horizontal through the part's centre
     distance: float  # metres from the part's centre
@@ -72,7 +72,7 @@ class SurfaceParams(Record):
     """The ground the part rests on (``render.surface``): a procedural material or a texture photo."""
 
     kind: str  # one of config.SURFACE_KINDS
-    hue: float  # 0..1: the surface's colour (HSV), kept plausible per kind by blender.surface
+    hue: float  # 0..1: the surface's colour (HSV), kept plausible per kind by blender.scene.surface
     saturation: float
     value: float
     roughness: float

@@ -8,6 +8,7 @@ LIGHT_KINDS = {
     "softbox": {"size": (0.25, 0.5), "aspect": (0.5, 1.0), "distance": (0.5, 0.9), "elevation": (20.0, 65.0)},
     "ring": {"size": (0.12, 0.25), "aspect": (1.0, 1.0), "distance": (1.02, 1.2), "elevation": (-4.0, 4.0)},
     "window": {"size": (0.8, 1.5), "aspect": (0.6, 1.5), "distance": (1.5, 3.0), "elevation": (0.0, 25.0)},
+    "overhead": {"size": (0.6, 1.2), "aspect": (0.5, 1.0), "distance": (0.7, 1.2), "elevation": (75.0, 90.0)},
 }
 
 # Colour ranges (HSV) per surface kind: wood browns, white to cream paper, grey concrete, steel, any cloth, black rubber.

@@ -128,7 +128,7 @@ def test_world_hdris_match_bpy_free_listing(tmp_path):
     out = run_blender(
         f"""
 import json, bpy
-from deformsim.blender.world import World
+from deformsim.blender.scene.world import World
 paths = {{key: sorted(World(bpy.context.scene, d).paths) for key, d in (("default", None), ("user", {str(tmp_path)!r}))}}
 print(json.dumps(paths))
 """

@@ -13,8 +13,8 @@ pytestmark = pytest.mark.blender
 IMPORT = """
 import json, bpy
 from pathlib import Path
-from deformsim.blender.mesh_import import import_mesh
-from deformsim.blender.rig import mesh_bounds
+from deformsim.blender.part.mesh_import import import_mesh
+from deformsim.blender.motion.rig import mesh_bounds
 from deformsim.errors import UserError
 from deformsim.spec.model import load_spec
 base = load_spec(None).model_copy(update=dict(builtin=None))

@@ -28,6 +28,9 @@ import bpy
 import numpy as np
 from mathutils import Quaternion, Vector
 
+from deformsim.blender.feature import Feature, RenderContext
+from deformsim.config import Config
+
 SIM_SIZE = 1.2  # metres: the part's largest dimension while simulating
 FPS = 24
 SETTLED = 1e-3  # per-frame motion (part sizes) of every extreme point below which a frame counts as still
@@ -227,3 +230,33 @@ def up_angle(rotation) -> float:
     z = Quaternion(rotation) @ Vector((0.0, 0.0, 1.0))
     return math.degrees(math.acos(max(-1.0, min(1.0, z.z))))
 
+
+
+def rest_columns(rest: DropResult) -> dict:
+    """Manifest columns of a dropped part's resting pose."""
+    qw, qx, qy, qz = (round(float(v), 6) for v in rest.rotation)
+    return {"rest_qw": qw, "rest_qx": qx, "rest_qy": qy, "rest_qz": qz, "rest_tilt": round(up_angle(rest.rotation), 3),
+            "drop_frames": rest.frames, "drop_settled": rest.settled}
+
+
+class Drop(Feature):
+    """``pose.mode: drop``: the part falls onto the ground instead of tilting; its resting pose in the manifest."""
+
+    def __init__(self, ctx: RenderContext):
+        super().__init__(ctx)
+        self.rest: DropResult | None = None  # how the last sample came to rest
+
+    @staticmethod
+    def on(cfg: Config) -> bool:
+        return cfg.pose.mode == "drop"
+
+    def place(self, p) -> tuple[float, float, float]:
+        if len(p.drop_rotation) != 4:
+            raise ValueError(f"sample {p.index} has no drop_rotation (drawn with pose.mode tilt?)")
+        ctx, pose = self.ctx, self.ctx.cfg.pose
+        self.rest = drop(ctx.scene, ctx.obj, ctx.pivot, ctx.target, ctx.ground, p.drop_rotation, pose.drop_height,
+                         pose.drop_frames)
+        return self.rest.target
+
+    def sample_columns(self) -> dict:
+        return rest_columns(self.rest)

@@ -10,8 +10,8 @@ pytestmark = pytest.mark.blender
 
 FACTS = """
 import json, bpy, bmesh, numpy as np
-from deformsim.blender.can import build_can, LID_Z
-from deformsim.blender.materials import set_label, apply_material
+from deformsim.blender.part.can import build_can, LID_Z
+from deformsim.blender.part.materials import set_label, apply_material
 from deformsim.sampling import CanDesign, MaterialParams
 from deformsim.spec.model import Material
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -126,8 +126,8 @@ def test_tiny_renders_show_the_can_and_each_new_label(tmp_path):
     """Two renders in one process with persistent data: the second must show the second label."""
     res = run_blender(f"""
 import json, math, bpy, numpy as np
-from deformsim.blender.can import build_can
-from deformsim.blender.materials import set_label
+from deformsim.blender.part.can import build_can
+from deformsim.blender.part.materials import set_label
 from deformsim.sampling import CanDesign
 bpy.ops.wm.read_factory_settings(use_empty=True)
 obj = build_can()

@@ -24,8 +24,9 @@ from pathlib import Path
 import bpy, numpy as np
 from bpy_extras.object_utils import world_to_camera_view
 from mathutils import Vector
-from deformsim.blender import cameras as cams, worker
-from deformsim.blender.render import apply_state
+from deformsim.blender import worker
+from deformsim.blender.scene import cameras as cams
+from deformsim.blender.passes.render import apply_state
 from deformsim.config import load_config
 from deformsim.hdri import list_hdris
 from deformsim.sampling import CameraParams, sample_params

@@ -1,5 +1,5 @@
-"""Area lights and view transforms in Blender: hidden lights change nothing, shown ones aim at the part and
-light it; the view transform reaches Cycles."""
+"""Area lights and view transforms in Blender: hidden lights change nothing, shown ones (a softbox, a ring and an
+overhead panel) aim at the part and light it; the view transform reaches Cycles."""
 
 from __future__ import annotations
 
@@ -23,14 +23,16 @@ SMALL = {"render.resolution": 48, "render.samples": 4, "render.threads": 2, "ren
 def test_lights_and_view_transform(tmp_path):
     spec = load_spec(None)
     plain = load_config("quick", SMALL)
-    lit = load_config("quick", {**SMALL, "render.view_transform": "Standard", "lighting.area_lights.count": [0, 2]})
+    lit = load_config("quick", {**SMALL, "render.view_transform": "Standard", "lighting.area_lights.count": [0, 3]})
     p = sample_params(0, 3, plain, spec, list_hdris(None))
     assert p.lights == ()
     strong = (LightParams(kind="softbox", azimuth=p.cameras[0].azimuth + 30, elevation=40.0, distance=0.6, size=0.4,
                           size_y=0.3, spin=20.0, power=300 * 0.36, temperature=5500.0),
               LightParams(kind="ring", azimuth=p.cameras[0].azimuth, elevation=90 - p.cameras[0].polar,
                           distance=p.cameras[0].radius * 1.1, size=0.2, size_y=0.2, spin=0.0, power=20.0,
-                          temperature=6500.0))
+                          temperature=6500.0),
+              LightParams(kind="overhead", azimuth=10.0, elevation=85.0, distance=0.9, size=1.0, size_y=0.6, spin=30.0,
+                          power=150 * 0.81, temperature=5000.0))
     q = dataclasses.replace(p, lights=strong)
     out = run_blender(f"""
 import json
@@ -39,8 +41,8 @@ import numpy as np
 from PIL import Image
 from mathutils import Vector
 from deformsim.blender import worker
-from deformsim.blender.lights import scene_lights
-from deformsim.blender.render import render_sample
+from deformsim.blender.scene.lights import scene_lights
+from deformsim.blender.passes.render import render_sample
 from deformsim.dataset.layout import Layout, image_id
 from deformsim.sampling import SampleParams
 
@@ -72,6 +74,7 @@ for o in lights:
     aims.append(axis.dot((Vector(ctx.target) - o.matrix_world.translation).normalized()))
 facts["aim"] = aims
 facts["shapes"] = [o.data.shape for o in lights]
+facts["heights"] = [o.matrix_world.translation.z - ctx.target[2] for o in lights]
 part = (dark[..., 3] == 255) & (bright[..., 3] == 255)
 facts["part_pixels"] = int(part.sum())
 facts["dark"] = float(dark[..., :3][part].mean())
@@ -83,11 +86,12 @@ worker.configure(ctx, {{**ctx.cfg.render.model_dump(), "view_transform": "AgX", 
 facts["view"] = [ctx.scene.view_settings.view_transform, ctx.scene.view_settings.look]
 print(json.dumps(facts))
 """)
-    assert out["plain_lights"] == 0 and out["made"] == 2
+    assert out["plain_lights"] == 0 and out["made"] == 3
     assert out["same_bytes"], "explicit Standard with hidden area lights renders what the default renders"
-    assert out["hidden"] == [True, True] and out["shown"] == [True, True] and out["camera_visible"] == [False, False]
+    assert out["hidden"] == [True] * 3 and out["shown"] == [True] * 3 and out["camera_visible"] == [False] * 3
     assert min(out["aim"]) > 0.9999, f"lights point at the part: {out['aim']}"
-    assert out["shapes"] == ["RECTANGLE", "DISK"]
+    assert out["shapes"] == ["RECTANGLE", "DISK", "RECTANGLE"]
+    assert out["heights"][2] > 0.85 and out["heights"][2] > max(out["heights"][:2])  # the panel hangs above the part
     assert out["part_pixels"] > 100 and out["alpha_same"], "the lights themselves never show in the image"
     assert out["bright"] > out["dark"] + 10, f"lit part {out['bright']:.1f} vs HDRI only {out['dark']:.1f}"
     assert out["off_again"], "a sample without lights after one with lights renders as before"

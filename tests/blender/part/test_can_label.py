@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from deformsim.blender.can_label import make_label
+from deformsim.blender.part.can_label import make_label
 from deformsim.errors import UserError
 from deformsim.sampling import CanDesign
 

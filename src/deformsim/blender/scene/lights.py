@@ -1,4 +1,5 @@
-"""Area lights on top of the HDRI world (``lighting.area_lights``): softboxes, ring lights and windows.
+"""Area lights on top of the HDRI world (``lighting.area_lights``): softboxes, ring lights, windows and overhead
+panels (a ceiling light or inspection hood above the part).
 
 :func:`make_lights` creates the most lights a sample can have once, in the worker; :func:`set_lights` puts
 sample's :class:`~deformsim.sampling.LightParams` on them and hides the rest. Lights are invisible to camera
@@ -12,10 +13,12 @@ import math
 import bpy
 from mathutils import Euler, Vector
 
+from deformsim.blender.feature import Feature, RenderContext
+from deformsim.config import Config
 from deformsim.sampling import LightParams
 
 PREFIX = "AreaLight"
-SHAPES = {"softbox": "RECTANGLE", "window": "RECTANGLE", "ring": "DISK"}
+SHAPES = {"softbox": "RECTANGLE", "window": "RECTANGLE", "ring": "DISK", "overhead": "RECTANGLE"}
 
 
 def make_lights(scene, n: int) -> list:
@@ -63,3 +66,18 @@ def set_lights(scene, lights: tuple[LightParams, ...], target, scale: float = 1.
         obj.hide_render = False
     for obj in objs[len(lights):]:
         obj.hide_render = True
+
+
+class AreaLights(Feature):
+    """``lighting.area_lights``: the most lights a sample can have, made once, shown as each sample draws them."""
+
+    def __init__(self, ctx: RenderContext):
+        super().__init__(ctx)
+        make_lights(ctx.scene, ctx.cfg.lighting.area_lights.count[1])
+
+    @staticmethod
+    def on(cfg: Config) -> bool:
+        return cfg.lighting.area_lights.count[1] > 0
+
+    def apply(self, p, target) -> None:
+        set_lights(self.ctx.scene, p.lights, target, self.ctx.camera_scale)

@@ -1,8 +1,15 @@
-"""Empty scene and Cycles settings: deterministic, exact-alpha RGBA PNG output, CPU or GPU device."""
+"""Empty scene, Cycles settings (deterministic, exact-alpha RGBA PNG output, CPU or GPU device) and one render."""
 
 from __future__ import annotations
 
+import os
+import tempfile
+import time
+from pathlib import Path
+
 import bpy
+import numpy as np
+from PIL import Image
 
 from deformsim.config import RenderConfig
 from deformsim.errors import UserError
@@ -107,3 +114,20 @@ def _quality(cy, r: RenderConfig, gpu: bool) -> None:
         cy.denoising_quality = r.denoise_quality.upper()
     cy.use_auto_tile = True
     cy.tile_size = r.tile_size
+
+
+def render_to_array(scene, target: Path) -> tuple[np.ndarray, float]:
+    """Render the scene's camera into a temporary PNG beside ``target``; return (uint8 pixels, seconds)."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.render.", suffix=".png", dir=target.parent)
+    os.close(fd)
+    try:
+        scene.render.filepath = tmp
+        t0 = time.perf_counter()
+        bpy.ops.render.render(write_still=True)
+        seconds = time.perf_counter() - t0
+        with Image.open(tmp) as im:
+            pixels = np.array(im.convert("RGBA" if scene.render.film_transparent else "RGB"))
+    finally:
+        Path(tmp).unlink(missing_ok=True)
+    return pixels, seconds

@@ -9,7 +9,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from deformsim.blender.can_label import make_label
+from deformsim.blender.part.can_label import make_label
 from deformsim.sampling import CanDesign, MaterialParams
 from deformsim.spec.model import Material
 

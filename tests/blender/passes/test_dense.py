@@ -74,7 +74,7 @@ def test_rgb_images_are_byte_identical_with_dense_on_or_off(runs):
             for kind in ("rgba", "black", "green"):
                 iid = image_id(index, cam)
                 assert runs["on"].image(kind, iid).read_bytes() == runs["off"].image(kind, iid).read_bytes(), (kind, iid)
-    assert not (runs["off"].root / "images" / "mask").exists() and runs["off_replies"][0]["dense"] is None
+    assert not (runs["off"].root / "images" / "mask").exists() and runs["off_replies"][0]["kinds"] == []
 
 
 def test_masks_match_alpha_and_maps_are_well_formed(runs):
@@ -88,12 +88,12 @@ def test_masks_match_alpha_and_maps_are_well_formed(runs):
             assert np.all(m["depth"][~m["mask"]] == 0) and np.all(m["deform"][~m["mask"]] == 0)
             # camera space, z towards the viewer: visible surfaces face the camera
             assert m["normal"][m["mask"]][:, 2].mean() > 0.5
-            row = runs["replies"][index]["dense"][cam]
+            row = runs["replies"][index]["image_columns"][cam]
             assert (row["bbox_x0"], row["bbox_y0"], row["bbox_x1"], row["bbox_y1"]) == dense.mask_bbox(m["mask"])
 
 
 def test_intact_part_gives_zero_maps_despite_open_tab_and_seal(runs):
-    rows = runs["replies"][1]["dense"]
+    rows = runs["replies"][1]["image_columns"]
     assert all(r["max_disp_mm"] == 0 and r["visible_disp_mm"] == 0 and r["region_fraction"] == 0 for r in rows)
     for cam in range(len(CAMERAS)):
         m = _maps(runs["on"], 1, cam)
@@ -101,7 +101,7 @@ def test_intact_part_gives_zero_maps_despite_open_tab_and_seal(runs):
 
 
 def test_deformed_maps_are_positive_where_the_rig_moved_and_peak_at_the_vertex_maximum(runs):
-    rows = runs["replies"][0]["dense"]
+    rows = runs["replies"][0]["image_columns"]
     peak = rows[0]["max_disp_mm"]
     assert peak > 10 and all(r["max_disp_mm"] == peak for r in rows)
     assert rows[0]["family_crush"] == 1 and rows[0]["family_pinch"] == 0
@@ -117,11 +117,12 @@ def test_crinkle_map_peaks_at_the_shape_key_displacement_computed_in_numpy(runs)
     expected = run_blender(f"""
         import json
         import numpy as np
-        from deformsim.blender import can, scene
-        from deformsim.blender.rig import build_rig
+        from deformsim.blender import cycles
+        from deformsim.blender.part import can
+        from deformsim.blender.motion.rig import build_rig
         from deformsim.spec.model import load_spec
         from deformsim.dataset.dense import rigid_fit
-        scene.reset()
+        cycles.reset()
         obj = can.build_can()
         spec = load_spec(None)
         build_rig(obj, spec)
@@ -137,7 +138,7 @@ def test_crinkle_map_peaks_at_the_shape_key_displacement_computed_in_numpy(runs)
         r, t = rigid_fit(rest, moved)
         print(json.dumps({{"max_mm": float(np.linalg.norm(moved - (rest @ r.T + t), axis=1).max() * 1000)}}))
     """)["max_mm"]
-    rows = runs["replies"][2]["dense"]
+    rows = runs["replies"][2]["image_columns"]
     assert expected > 1 and rows[0]["max_disp_mm"] == pytest.approx(expected, rel=1e-3)
     visible = max(r["visible_disp_mm"] for r in rows)
     assert abs(visible - expected) <= 0.1 * expected

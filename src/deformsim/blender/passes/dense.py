@@ -1,4 +1,4 @@
-"""Dense ground truth from the same Cycles render as the RGB image (issue 14).
+"""Dense ground truth from the same Cycles render as the RGB image (``render.dense``).
 
 The part's mesh carries a point attribute :data:`REST`: its rest shape, i.e. the Basis with the opening keys (tab,
 seal) applied at the sample's values, so openings never count as deformation, and placed by a rigid fit
@@ -19,8 +19,10 @@ import bpy
 import numpy as np
 import OpenEXR
 
+from deformsim.blender.feature import Feature
+from deformsim.config import Config
 from deformsim.dataset import dense as maps
-from deformsim.dataset.layout import Layout
+from deformsim.dataset.layout import DENSE_KINDS, Layout
 from deformsim.sampling import SampleParams
 from deformsim.spec.model import Spec
 
@@ -155,3 +157,33 @@ def _fill(depth: np.ndarray, mask: np.ndarray, steps: int = 4) -> np.ndarray:
 
 def family_flags(spec: Spec, p: SampleParams) -> dict[str, int]:
     return {f"family_{name}": int(name in p.families) for name in [f.name for f in spec.families] + spec.scenario_names}
+
+
+class Dense(Feature):
+    """``render.dense``: the five maps of :data:`~deformsim.dataset.layout.DENSE_KINDS` per camera, with each
+    image's columns: the sample's largest displacement and families, the image's bounding box, displacement and
+    region (:func:`deformsim.dataset.dense.map_stats`)."""
+
+    kinds = DENSE_KINDS
+
+    def __init__(self, ctx):
+        super().__init__(ctx)
+        self.sample: dict = {}  # the sample's columns, shared by its images
+        self.images: list[dict] = []  # each image's columns
+
+    @staticmethod
+    def on(cfg: Config) -> bool:
+        return cfg.render.dense
+
+    def apply(self, p, target) -> None:
+        ctx = self.ctx
+        self.sample = {"max_disp_mm": prepare(ctx.scene, ctx.obj, ctx.spec, p), **family_flags(ctx.spec, p)}
+        self.images = []
+
+    def image(self, c: int, iid: str, rgba: np.ndarray, layout: Layout) -> None:
+        ctx = self.ctx
+        stats = write_maps(ctx.scene, ctx.cameras[c], rgba[..., 3], layout, iid, ctx.cfg.render.region_threshold_mm)
+        self.images.append({**self.sample, **stats})
+
+    def image_columns(self, c: int) -> dict:
+        return self.images[c]

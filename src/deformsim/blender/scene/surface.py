@@ -19,11 +19,18 @@ all come from the same light. Pattern sizes are metres at the built-in can's sca
 from __future__ import annotations
 
 import colorsys
+import json
 import math
+from pathlib import Path
 
 import bpy
+import numpy as np
 
-from deformsim.blender.shadow import make_plane, place, plane_shown
+from deformsim.blender.cycles import render_to_array
+from deformsim.blender.feature import Feature, RenderContext
+from deformsim.blender.scene.ground import make_plane, place, plane_shown
+from deformsim.config import Config
+from deformsim.dataset.layout import SURFACE_KIND
 
 SURFACE = "DeformsimSurface"
 PHOTO_TILE = 0.6  # m: the size one texture photo covers on the ground at scale 1 (a table top's width)
@@ -60,10 +67,10 @@ def set_surface(plane, obj, target, p, camera_scale: float = 1.0) -> None:
     plane.data.materials.append(mat)
 
 
-def render_scene(scene, plane, world, render_to_array, target, last: bool = True):
+def render_scene(scene, plane, world, target: Path, last: bool = True) -> tuple[np.ndarray, float]:
     """Render the surface scene of the scene's camera (plane shown, HDRI seen beyond it); return (RGB, seconds).
 
-    ``last``: see :func:`deformsim.blender.shadow.plane_shown`."""
+    ``last``: see :func:`deformsim.blender.scene.ground.plane_shown`."""
     scene.render.film_transparent = False
     world.camera_sees_hdri(True)
     try:
@@ -73,6 +80,34 @@ def render_scene(scene, plane, world, render_to_array, target, last: bool = True
         scene.render.film_transparent = True
         world.camera_sees_hdri(False)
     return pixels[..., :3], seconds
+
+
+class Surface(Feature):
+    """``render.surface``: ``images/surface/ID.png`` per camera, and the drawn ground in ``surface_params``."""
+
+    kinds = (SURFACE_KIND,)
+    extra_pass = True
+
+    def __init__(self, ctx: RenderContext):
+        super().__init__(ctx)
+        self.plane = make_surface(ctx.scene, ctx.camera_scale)
+        self.params = ""  # the sample's surface, as its manifest column
+
+    @staticmethod
+    def on(cfg: Config) -> bool:
+        return cfg.render.surface is not None
+
+    def apply(self, p, target) -> None:
+        if p.surface is None:
+            raise ValueError(f"sample {p.index} has no surface (drawn without render.surface?)")
+        set_surface(self.plane, self.ctx.obj, target, p.surface, self.ctx.camera_scale)
+        self.params = json.dumps(p.surface.__dict__, sort_keys=True)
+
+    def render_pass(self, c: int, path: Path, last: bool) -> tuple[np.ndarray, float]:
+        return render_scene(self.ctx.scene, self.plane, self.ctx.world, path, last=last)
+
+    def image_columns(self, c: int) -> dict:
+        return {"surface_params": self.params}
 
 
 def _linear(rgb) -> tuple[float, float, float]:

@@ -36,7 +36,7 @@ CUSTOM = {"samples": 7, "adaptive": True, "adaptive_threshold": 0.05, "adaptive_
 def test_settings_reach_cycles_and_defaults_are_todays():
     out = run_blender(READ + f"""
 import json, bpy
-from deformsim.blender.scene import configure_cycles, reset
+from deformsim.blender.cycles import configure_cycles, reset
 from deformsim.config import RenderConfig
 reset()
 cy = bpy.context.scene.cycles

@@ -16,7 +16,7 @@ import bpy
 import bmesh  # importable only once bpy is
 import numpy as np
 
-from deformsim.blender.rig import mesh_bounds
+from deformsim.blender.motion.rig import mesh_bounds
 from deformsim.errors import UserError
 from deformsim.spec.model import Spec, check_mesh_file
 
@@ -109,7 +109,7 @@ def _normalise(mesh: bpy.types.Mesh, spec: Spec, path: Path) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m deformsim.blender.mesh_import MESH [SPEC]``: import only; print the size or the problem."""
+    """``python -m deformsim.blender.part.mesh_import MESH [SPEC]``: import only; print the size or the problem."""
     import json
     import sys
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -48,8 +49,13 @@ def _read(layout: Layout, kind: str, cam: int, sample: int = 0) -> np.ndarray:
 
 
 def test_reply_names_the_scene_images(scenes):
-    assert all(r["scene"] == ["shadow", "surface"] for r in scenes[True][1]), scenes[True][1]
-    assert "scene" not in scenes[False][1][0]
+    assert all(r["kinds"] == ["shadow", "surface"] for r in scenes[True][1]), scenes[True][1]
+    assert scenes[False][1][0]["kinds"] == [] and scenes[False][1][0]["image_columns"] == [{}, {}]
+    for r, kind in zip(scenes[True][1], ("wood", "photo")):
+        for c, cols in enumerate(r["image_columns"]):
+            assert list(cols) == ["shadow", "surface", "surface_params"]
+            assert cols["surface"] == f"images/surface/{image_id(r['done'], c)}.png"
+            assert json.loads(cols["surface_params"])["kind"] == kind
 
 
 def test_rgba_and_variants_unchanged_by_surface(scenes):

@@ -10,8 +10,9 @@ pytestmark = pytest.mark.blender
 
 NODES = """
 import json, bpy
-from deformsim.blender import dense, materials
-from deformsim.blender.can import build_can
+from deformsim.blender.part import materials
+from deformsim.blender.passes import dense
+from deformsim.blender.part.can import build_can
 from deformsim.sampling import MaterialParams
 from deformsim.spec.model import Material
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -60,8 +61,11 @@ RENDER = """
 import dataclasses, json, sys, tempfile
 from pathlib import Path
 import bpy, numpy as np
-from deformsim.blender import cameras as cams, materials, worker
-from deformsim.blender.render import apply_state, _render_to_array
+from deformsim.blender import worker
+from deformsim.blender.cycles import render_to_array
+from deformsim.blender.part import materials
+from deformsim.blender.scene import cameras as cams
+from deformsim.blender.passes.render import apply_state
 from deformsim.config import load_config
 from deformsim.hdri import list_hdris
 from deformsim.sampling import CanDesign, sample_params
@@ -80,7 +84,7 @@ def render(name):
     cam = ctx.cameras[0]
     cams.place(cam, dataclasses.replace(base.cameras[0], radius=0.2), ctx.target, ctx.camera_scale, ctx.obj)
     ctx.scene.camera = cam
-    return _render_to_array(ctx.scene, tmp / f"{name}.png")[0].astype(float)
+    return render_to_array(ctx.scene, tmp / f"{name}.png")[0].astype(float)
 
 off = {n: render(n) for n in states}
 materials.enable_creases(ctx.obj)

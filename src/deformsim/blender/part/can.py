@@ -179,7 +179,7 @@ def _rotate_x(pts: np.ndarray, y0: float, z0: float, angle: np.ndarray) -> np.nd
 
 def build_can() -> bpy.types.Object:
     """Build the can mesh, its UVs, materials, "side_wall" group and Basis/Seal/Tab keys; link it."""
-    from deformsim.blender.materials import can_materials
+    from deformsim.blender.part.materials import can_materials
 
     m = _Mesh()
     groups = _body(m)

@@ -42,7 +42,8 @@ def _read(layout: Layout, kind: str, cam: int, sample: int = 0) -> np.ndarray:
 
 
 def test_reply_names_shadow_only_when_on(shadows):
-    assert all(r["scene"] == ["shadow"] for r in shadows[True][1]) and all("scene" not in r for r in shadows[False][1])
+    assert all(r["kinds"] == ["shadow"] for r in shadows[True][1]) and all(r["kinds"] == [] for r in shadows[False][1])
+    assert shadows[True][1][1]["image_columns"][0] == {"shadow": "images/shadow/000001_c0.png"}
     assert not (shadows[False][0].root / "images" / "shadow").exists()
 
 

@@ -10,12 +10,12 @@ pytestmark = pytest.mark.blender
 
 BUILD = """
 import json, numpy as np, bpy
-from deformsim.blender import scene
-from deformsim.blender.can import build_can
-from deformsim.blender.rig import build_rig
+from deformsim.blender import cycles
+from deformsim.blender.part.can import build_can
+from deformsim.blender.motion.rig import build_rig
 from deformsim.spec.model import load_spec
 from deformsim.spec.lattice_ops import rest_lattice
-scene.reset()
+cycles.reset()
 obj = build_can()
 spec = load_spec(None)
 base = np.array([v.co[:] for v in obj.data.vertices])
@@ -95,12 +95,12 @@ def test_missing_vertex_group_is_a_user_error(tmp_path):
     out = run_blender(
         f"""
 import json
-from deformsim.blender import scene
-from deformsim.blender.can import build_can
-from deformsim.blender.rig import build_rig
+from deformsim.blender import cycles
+from deformsim.blender.part.can import build_can
+from deformsim.blender.motion.rig import build_rig
 from deformsim.errors import UserError
 from deformsim.spec.model import load_spec
-scene.reset()
+cycles.reset()
 try:
     build_rig(build_can(), load_spec({str(spec)!r}))
     print(json.dumps({{"error": None}}))

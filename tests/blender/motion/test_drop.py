@@ -22,9 +22,9 @@ def drops(tmp_path_factory):
     return run_blender(f"""
         import json, time
         import bpy, numpy as np
-        from deformsim.blender import drop
-        from deformsim.blender.render import apply_state, render_sample
-        from deformsim.blender.worker import rest_columns, setup
+        from deformsim.blender.motion import drop
+        from deformsim.blender.passes.render import apply_state, render_sample
+        from deformsim.blender.worker import setup
         from deformsim.config import load_config
         from deformsim.dataset.layout import Layout, image_id
         from deformsim.hdri import list_hdris
@@ -34,6 +34,7 @@ def drops(tmp_path_factory):
 
         cfg = load_config("quick", {json.dumps(overrides)})
         ctx, layout, ready = setup({{"config": cfg.model_dump(mode="json"), "spec_path": None, "out": "{out}"}})
+        dropper = next(f for f in ctx.features if isinstance(f, drop.Drop))
         spec, hdris = load_spec(None), list_hdris(None)
         counts = lambda: [len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.collections)]
         before = counts()
@@ -46,16 +47,17 @@ def drops(tmp_path_factory):
             m = np.array(ctx.obj.matrix_world)
             z = (co @ m[:3, :3].T + m[:3, 3])[:, 2]
             samples.append({{"label": p.label, "min_z": float(z.min()), "max_z": float(z.max()), "target": target,
-                             "ground": ctx.ground, "seconds": ctx.rest.seconds, **rest_columns(ctx.rest)}})
+                             "ground": ctx.ground, "seconds": dropper.rest.seconds, **dropper.sample_columns()}})
         again = []
         for i in (1, 2):
             apply_state(ctx, sample_params(i, 4, cfg, spec, hdris))
-            again.append(list(ctx.rest.rotation))
+            again.append(list(dropper.rest.rotation))
         p = sample_params(2, 4, cfg, spec, hdris)
-        render_sample(ctx, p, layout)
+        rendered = render_sample(ctx, p, layout)
         alpha = [np.array(Image.open(layout.image("rgba", image_id(2, c))))[..., 3] for c in range(2)]
         print(json.dumps({{"samples": samples, "again": again, "before": before, "after": counts(),
                            "rigidbody_world": bpy.context.scene.rigidbody_world is not None,
+                           "rendered_columns": rendered.sample_columns == dropper.sample_columns(),
                            "coverage": [float((a > 0).mean()) for a in alpha],
                            "border": [int(max(a[0].max(), a[-1].max(), a[:, 0].max(), a[:, -1].max())) for a in alpha]}}))
     """, timeout=240)
@@ -81,6 +83,10 @@ def test_drop_is_deterministic_and_leaves_nothing_behind(drops):
         assert max(abs(x - y) for x, y in zip(a, b)) < 1e-5
     assert drops["after"] == drops["before"]  # temporary bodies, meshes and the rigid-body collection are gone
     assert not drops["rigidbody_world"]
+
+
+def test_reply_carries_the_resting_pose(drops):
+    assert drops["rendered_columns"]
 
 
 def test_dropped_part_is_framed(drops):

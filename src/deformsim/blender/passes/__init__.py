@@ -1,0 +1,1 @@
+"""Render passes: one sample's images (render) and its dense ground truth (dense)."""
