@@ -28,7 +28,7 @@ test: setup
 	$(VENV)/bin/ruff check src tests bench examples
 	$(PY) -m pytest -q
 
-# the tests that render nothing (under a minute)
+# the tests that render nothing (a few minutes)
 test-fast: setup
 	$(PY) -m pytest -q -m "not blender"
 

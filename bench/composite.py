@@ -68,7 +68,7 @@ def main() -> None:
         print("rendering 32 images at 128 px ...", flush=True)
         generate(load_config("quick", {"generate.n": 32, "render.resolution": 128, "render.samples": 8,
                                        "generate.preview": 0}), root, progress=False)
-    df = pd.read_parquet(root / "manifest.parquet")
+    df = pd.read_parquet(root / "manifest.parquet", use_threads=False)
     ids = list(df["id"])
     photos = sorted(p for p in args.backgrounds.rglob("*") if p.suffix.lower() in {".jpg", ".jpeg", ".png"})
     cfg = CompositeConfig(backgrounds=args.backgrounds)

@@ -77,15 +77,6 @@ def test_camera_framing_is_off_by_default_and_lens_takes_a_range():
     assert cam.lens_mm == (35.0, 85.0) and cam.lens_fixed == 60.0 and cam.framing
 
 
-def test_scene_kinds_are_the_layouts_in_render_order():
-    from deformsim.config import RenderConfig
-    from deformsim.dataset.layout import SCENE_KINDS
-
-    assert RenderConfig().scene_kinds == ()
-    assert RenderConfig(shadow=True, surface={}).scene_kinds == SCENE_KINDS
-    assert RenderConfig(surface={"kinds": ["cloth"]}).scene_kinds == ("surface",)
-
-
 @pytest.mark.parametrize(
     "overrides, line",
     [
@@ -111,3 +102,85 @@ def test_a_bad_value_in_a_file_is_named_by_the_file(tmp_path):
         load_config(path)
     assert str(exc.value) == f"{path}: invalid lighting.area_lights.count: count range [3, 1] is empty (min > max) " \
         "(got [3, 1])"
+
+
+def _number_fields():
+    """Every leaf field of the config that holds numbers: (dotted key, its kind in words)."""
+    from deformsim.config import Config
+    from deformsim.config_reference import fields, sections
+
+    for key, model in [("", Config), *sections()]:
+        for f in fields(model, key):
+            if f.section is None and any(w in f.kind for w in ("number", "integer", "[min, max]")):
+                yield f.key, f.kind
+
+
+def _values(kind: str, bad: float) -> object:
+    """A value of a field of ``kind`` that holds ``bad``."""
+    if kind.startswith("list of [min, max]"):
+        return [[0, bad]]
+    if kind.startswith("[min, max]"):
+        return [0, bad] if bad > 0 or bad != bad else [bad, 0]
+    if kind.startswith("["):  # a fixed tuple of numbers
+        return [bad] * kind.count("integer")
+    return bad
+
+
+NUMBER_FIELDS = sorted(_number_fields())
+
+
+@pytest.mark.parametrize("key, kind", NUMBER_FIELDS, ids=[k for k, _ in NUMBER_FIELDS])
+def test_every_number_field_refuses_nan_infinity_and_absurd_values(key, kind):
+    """NaN and infinity in any float (alone or in a range) and values beyond any real run's, in any number field,
+    are one line naming the key."""
+    floats = "integer" not in kind or "number" in kind
+    for bad in ([float("nan"), float("inf"), -float("inf")] if floats else []) + [10**30, -(10**30)]:
+        with pytest.raises(UserError) as exc:
+            load_config("quick", {key: _values(kind, bad)})
+        line = str(exc.value)
+        assert key in line and "\n" not in line and len(line) < 300, (bad, line)
+
+
+@pytest.mark.parametrize("seed", [-1, 2**63, 2**64 + 1, 2**200])
+@pytest.mark.parametrize("key", ["generate.seed", "train.seed"])
+def test_seeds_stay_within_int64_and_numpy(key, seed):
+    with pytest.raises(UserError, match=key.replace(".", r"\.")):
+        load_config("quick", {key: seed})
+    assert load_config("quick", {key: 2**63 - 1})
+
+
+def test_nan_lens_and_fill_are_named_in_one_line(tmp_path):
+    path = tmp_path / "c.yaml"
+    path.write_text("camera:\n  lens_mm: .nan\n")
+    with pytest.raises(UserError) as exc:
+        load_config(path)
+    assert str(exc.value) == f"{path}: invalid camera.lens_mm: Input should be a finite number (got nan)"
+    path.write_text("camera:\n  fill: [.nan, 0.5]\n")
+    with pytest.raises(UserError, match=r"invalid camera\.fill\.0: Input should be a finite number") as exc:
+        load_config(path)
+    path.write_text("camera:\n  lens_mm: [35, .inf]\n")
+    with pytest.raises(UserError, match=r"invalid camera\.lens_mm\.1: Input should be a finite number"):
+        load_config(path)
+
+
+def test_error_lines_never_print_huge_values(tmp_path):
+    path = tmp_path / "c.yaml"
+    path.write_text("render:\n  look: [" + ", ".join(["lol"] * 50_000) + "]\n")
+    with pytest.raises(UserError) as exc:
+        load_config(path)
+    assert "invalid render.look" in str(exc.value) and str(exc.value).count("lol") <= 6 and len(str(exc.value)) < 500
+    with pytest.raises(UserError) as exc:
+        load_config("quick", {"render.look": "x" * 10**6}, {"render.look": "--look"})
+    assert str(exc.value).startswith("--look xxx") and len(str(exc.value)) < 400
+    for overrides in ({"generate.n": 10**5000}, {"lighting.area_lights.count": [0, 10**5000]},
+                      {"deform.families": [1, 10**400]}):
+        with pytest.raises(UserError) as exc:
+            load_config("quick", overrides)
+        assert next(iter(overrides)) in str(exc.value) and len(str(exc.value)) < 300
+
+
+def test_an_override_under_a_value_that_is_no_mapping_names_that_value(tmp_path):
+    path = tmp_path / "c.yaml"
+    path.write_text("generate: 5\n")
+    with pytest.raises(UserError, match=r"invalid generate: Input should be .*dictionary"):
+        load_config(path, {"generate.n": 8})

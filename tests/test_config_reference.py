@@ -28,7 +28,7 @@ def test_the_walk_gives_keys_types_defaults_and_rules():
     assert camera["camera.fill"].kind == "[min, max] (0 < min ≤ max ≤ 1) or null" and camera["camera.fill"].default is None
     assert camera["camera.polar"].kind == "[min, max] (0 ≤ min ≤ max ≤ 180)"
     assert camera["camera.polar"].default == [50.0, 70.0]
-    assert camera["camera.lens_mm"].kind == "number or [min, max] (above 1)"
+    assert camera["camera.lens_mm"].kind == "number or [min, max] (above 1, at most 2000)"
     render = {f.key: f for f in fields(type(Config().render), "render")}
     assert render["render.resolution"].kind == "integer (16 ≤ x ≤ 4096)"
     assert render["render.surface"].section is not None and render["render.surface"].kind == "section or null"
@@ -38,3 +38,11 @@ def test_the_walk_gives_keys_types_defaults_and_rules():
 def test_main_writes_the_reference(tmp_path):
     main([str(tmp_path / "configuration.md")])
     assert (tmp_path / "configuration.md").read_text(encoding="utf-8") == markdown()
+
+
+def test_every_number_field_states_its_range():
+    """The reference gives every number an upper bound."""
+    for key, model in [("", Config), *sections()]:
+        for f in fields(model, key):
+            if f.section is None and any(w in f.kind for w in ("number", "integer", "[min, max]")):
+                assert any(b in f.kind for b in ("≤ max ≤", "x ≤", "x <", "at most")), (f.key, f.kind)

@@ -100,3 +100,32 @@ def test_bad_meshes_fail_before_rendering(tmp_path, name, content, needle):
     proc = cli("run", "--object", str(mesh), "--spec", str(CARTON_SPEC), "--out", str(tmp_path / "out"))
     assert proc.returncode == 2 and needle in proc.stderr and name in proc.stderr, proc.stderr
     assert not (tmp_path / "out").exists()
+
+
+@pytest.fixture
+def no_work(monkeypatch):
+    """Fail the test if a run gets past its checks."""
+    import deformsim.pipeline as pipeline
+
+    def started(*_, **__):
+        raise AssertionError("the run started its work")
+
+    monkeypatch.setattr(pipeline, "prepare", started)
+
+
+def test_run_never_writes_into_another_output_nor_replaces_an_input(tmp_path, no_work):
+    data = tmp_path / "data"
+    (data / "samples").mkdir(parents=True)
+    (data / "inputs.json").write_text(json.dumps({"kind": "dataset", "inputs": {}}))
+    cfg = load_config("quick", E2E)
+    with pytest.raises(UserError, match="holds a deformsim dataset, not a run"):
+        run(cfg, data, progress=False)
+    real = tmp_path / "run" / "report" / "real"
+    (real / "intact").mkdir(parents=True)
+    with pytest.raises(UserError, match="the run's report folder .*report contains the real photos"):
+        run(cfg, tmp_path / "run", real=real, progress=False)
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    with pytest.raises(UserError, match="--out .*lies inside the backgrounds folder"):
+        run(load_config("quick", {**E2E, "composite.backgrounds": str(photos)}), photos / "run", progress=False)
+    assert sorted(p.name for p in data.iterdir()) == ["inputs.json", "samples"] and not any(photos.iterdir())

@@ -66,13 +66,16 @@ class Engine:
         self.progress = progress
         self.notify = notify or (lambda line: None)
 
-    def generate(self, out: str | Path, overwrite: bool = False):
+    def generate(self, out: str | Path, overwrite: bool = False, yes: bool = False):
         """Render the dataset into ``out`` (resuming what is there); a :class:`GenerateResult`.
 
-        A dataset of other settings or inputs in ``out`` is refused unless ``overwrite`` (then replaced whole).
+        A dataset of other settings or inputs in ``out`` is refused unless ``overwrite`` (then replaced whole); more
+        than ``config.CONFIRM_IMAGES`` images unless ``yes``.
         """
+        from deformsim.generate.refusals import check_plan
         from deformsim.generate.stage import generate
 
+        check_plan(self.config, yes)
         return generate(self.config, Path(out), progress=self.progress, overwrite=overwrite)
 
     def bake(self, force: bool = False) -> Path:
@@ -97,11 +100,15 @@ class Engine:
         return composite(Path(data), cfg, name, seed, progress=self.progress)
 
     def export_data(self, data: str | Path, out: str | Path, format: str, variant: str | None = None,
-                    overwrite: bool = False):
-        """Export a variant of ``data`` as ``imagefolder``, ``coco`` or ``anomalib`` into ``out``; an ExportResult."""
+                    overwrite: bool = False, copy: bool = False):
+        """Export a variant of ``data`` as ``imagefolder``, ``coco`` or ``anomalib`` into ``out``; an ExportResult.
+
+        Files are hard links to the dataset's own where possible (editing one in place changes the dataset); ``copy``
+        makes an independent export. ``overwrite`` replaces an earlier export, never anything else."""
         from deformsim.export import export_data
 
-        return export_data(Path(data), Path(out), format, variant, overwrite=overwrite, progress=self.progress)
+        return export_data(Path(data), Path(out), format, variant, overwrite=overwrite, progress=self.progress,
+                           copy=copy)
 
     def train(self, data: str | Path, out: str | Path, variant: str | None = None, adapt: str | Path | None = None,
               overwrite: bool = False):
@@ -176,24 +183,27 @@ class Engine:
         return make_report(Path(data), self.config.train, out, real=_path(real), overwrite=overwrite,
                            progress=self.progress)
 
-    def run(self, out: str | Path, real: str | Path | None = None, overwrite: bool = False):
-        """Every stage into ``out``, skipping those already up to date; a :class:`RunResult`."""
+    def run(self, out: str | Path, real: str | Path | None = None, overwrite: bool = False, yes: bool = False):
+        """Every stage into ``out``, skipping those already up to date; a :class:`RunResult`. More than
+        ``config.CONFIRM_IMAGES`` images are refused unless ``yes``."""
+        from deformsim.generate.refusals import check_plan
         from deformsim.pipeline import run
 
+        check_plan(self.config, yes)
         self._check_real(real)
         return run(self.config, Path(out), real=_path(real), progress=self.progress, overwrite=overwrite)
 
     def spec_check(self, spec: str | Path, mesh: str | Path | None = None) -> SpecCheck:
-        """Validate a spec and, when given, its mesh (imported in a throwaway Blender process); nothing rendered."""
-        from deformsim.generate.probe import probe_mesh
-        from deformsim.spec.model import check_mesh_file, load_spec, units_hint
+        """Validate a spec and, when given, its mesh by the part checks of ``generate`` (the mesh imported in a
+        throwaway Blender process); nothing rendered."""
+        from deformsim.generate.stage import check_part_mesh
+        from deformsim.spec.model import load_spec
 
         loaded = load_spec(spec)
         if mesh is None:
             return SpecCheck(loaded)
-        check_mesh_file(mesh)
-        size = probe_mesh(Path(mesh), Path(spec))["size"]
-        return SpecCheck(loaded, size, units_hint(size, loaded))
+        size, hint = check_part_mesh(loaded, Path(mesh), Path(spec))
+        return SpecCheck(loaded, size, hint)
 
     def spec_preview(self, spec: str | Path | None, mesh: str | Path | None, out: str | Path, resolution: int = 192,
                      samples: int = 16) -> Path:

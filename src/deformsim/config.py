@@ -21,16 +21,18 @@ from deformsim.schema import (
     Above,
     FractionRange,
     NonEmpty,
-    NonNegativeRange,
-    OrderedRange,
-    PositiveRange,
     Range,
+    Seed,
     StrictModel,
     Within,
+    first_error,
     read_mapping,
+    shown,
 )
 
 PRESET_DIR = Path(__file__).parent / "presets"
+MAX_IMAGES = 10_000_000  # generate.n
+CONFIRM_IMAGES = 100_000  # a plan of more images asks for --yes (deformsim.generate.refusals.check_plan)
 
 
 class _Model(StrictModel):
@@ -45,6 +47,9 @@ class ObjectConfig(_Model):
 
 
 AngleRange = Annotated[Range, Within(0, 180)]
+UnitRange = Annotated[Range, Within(0, 1)]
+Byte = Annotated[int, Field(ge=0, le=255)]
+Width = Annotated[int, Field(ge=1, le=8192)]  # a layer's width
 
 
 class CameraConfig(_Model):
@@ -56,14 +61,14 @@ class CameraConfig(_Model):
 
     azimuth_quadrants: Annotated[list[Annotated[Range, Within(-360, 720)]],
                                  NonEmpty("at least one camera (azimuth range) is needed")] = Field(
-        [(20, 70), (110, 160), (200, 250), (290, 340)], description="one camera per range: its azimuth (degrees "
+        [(20, 70), (110, 160), (200, 250), (290, 340)], max_length=64, description="one camera per range: its azimuth (degrees "
         "about the up axis) drawn per sample in [min, max]; generate.n is a multiple of the number of cameras"
     )
     polar: AngleRange = Field((50.0, 70.0), description="camera angle from the up axis (degrees), drawn per camera")
-    radius: PositiveRange = Field(
+    radius: Annotated[Range, Within(hi=100, above=0)] = Field(
         (0.30, 0.45), description="camera distance (m for the built-in can; scaled with a mesh's size), drawn per camera"
     )
-    lens_mm: Annotated[float | Range, Above(1)] = Field(
+    lens_mm: Annotated[float | Range, Above(1, hi=2000)] = Field(
         50.0, description="focal length (mm), or a [min, max] range drawn per image"
     )
     fill: Annotated[FractionRange | None, identity.WHEN_SET] = Field(
@@ -78,7 +83,7 @@ class CameraConfig(_Model):
         0.0, ge=0, le=1, description="share of images whose part crosses the frame border (10-40 % of its box cut "
         "off at a random side)"
     )
-    fstop: Annotated[PositiveRange | None, identity.WHEN_SET] = Field(
+    fstop: Annotated[Annotated[Range, Within(hi=256, above=0)] | None, identity.WHEN_SET] = Field(
         None, description="depth of field: aperture f-number drawn per image (log-uniformly), focused on the part's "
         "centre; null = off"
     )
@@ -125,7 +130,8 @@ class AreaLightsConfig(_Model):
     """Area lights added to the HDRI per sample, as in inspection set-ups.
 
     Kinds: ``softbox`` (a large rectangle near the part, from above), ``ring`` (a disk light just behind one
-    of the sample's cameras, on its axis) and ``window`` (a large rectangle far away, from the side). Sizes and
+    of the sample's cameras, on its axis), ``window`` (a large rectangle far away, from the side) and ``overhead``
+    (a ceiling panel or inspection hood high above the part). Sizes and
     distances are for the built-in can and scale with the part like the camera radius. Off by default.
     """
 
@@ -133,10 +139,10 @@ class AreaLightsConfig(_Model):
         (0, 0), description="lights per sample, drawn uniformly in [min, max]; 0 = none"
     )
     kinds: Annotated[list[Literal["softbox", "ring", "window", "overhead"]],
-                     NonEmpty("area_lights.kinds is empty: name at least one of softbox, ring, window")] = Field(
+                     NonEmpty("area_lights.kinds is empty: name at least one of softbox, ring, window, overhead")] = Field(
         ["softbox", "ring", "window"], description="kinds drawn per light"
     )
-    power: NonNegativeRange = Field(
+    power: Annotated[Range, Within(0, 1_000_000)] = Field(
         (25.0, 150.0), description="watts the light would need 1 m from the built-in can (roughly 400 W lights a "
         "white part as much as a uniform world of strength 1); the power given to Blender grows with the light's "
         "distance squared and the part's size squared, so the light on the part does not depend on either"
@@ -150,8 +156,10 @@ class LightingConfig(_Model):
     """HDRI world lighting: a random EXR at a random rotation; optional area lights on top."""
 
     hdri_dir: Path | None = Field(None, description="folder of .exr/.hdr files; null = Blender's studiolights")
-    rotation: Range = Field((0.0, 360.0), description="rotation of the HDRI about the up axis (degrees), drawn per sample")
-    strength: NonNegativeRange = Field((0.8, 1.4), description="strength of the HDRI world, drawn per sample")
+    rotation: Annotated[Range, Within(-360, 720)] = Field(
+        (0.0, 360.0), description="rotation of the HDRI about the up axis (degrees), drawn per sample"
+    )
+    strength: Annotated[Range, Within(0, 1000)] = Field((0.8, 1.4), description="strength of the HDRI world, drawn per sample")
     area_lights: AreaLightsConfig = Field(AreaLightsConfig(), description="area lights on top of the HDRI")
 
 
@@ -159,9 +167,9 @@ class Sources(_Model):
     """Relative weights of where a deformed sample's shape comes from: the spec's lattice keys (paper), an entry
     of the simulated bank (``simulation:`` in the spec, baked on first use), or both at once."""
 
-    lattice: float = Field(1.0, ge=0, description="weight of shapes made from the spec's lattice keys")
-    bank: float = Field(0.0, ge=0, description="weight of shapes taken from the simulated bank")
-    both: float = Field(0.0, ge=0, description="weight of a bank entry with lattice keys on top")
+    lattice: float = Field(1.0, ge=0, le=1_000_000, description="weight of shapes made from the spec's lattice keys")
+    bank: float = Field(0.0, ge=0, le=1_000_000, description="weight of shapes taken from the simulated bank")
+    both: float = Field(0.0, ge=0, le=1_000_000, description="weight of a bank entry with lattice keys on top")
 
     @model_validator(mode="after")
     def _some(self) -> "Sources":
@@ -177,15 +185,15 @@ class Sources(_Model):
 class DeformConfig(_Model):
     """How deformed samples mix the spec's keys (paper, section III-B) and the simulated bank."""
 
-    families: Annotated[tuple[int, int], Within(1)] = Field(
+    families: Annotated[tuple[int, int], Within(1, 1000)] = Field(
         (3, 5), description="number of the spec's families mixed in one deformed sample, drawn in [min, max] "
         "(at most the families allowed)"
     )
     use_families: list[str] | None = Field(None, description="simulate only these families of the spec")
-    extent: NonNegativeRange = Field(
+    extent: Annotated[Range, Within(0, 100)] = Field(
         (0.7, 1.5), description="total weight of the drawn families' shape keys, drawn per sample"
     )
-    displacement: NonNegativeRange = Field(
+    displacement: Annotated[Range, Within(0, 100)] = Field(
         (0.6, 1.0), description="total strength of the spec's displacement textures (surface crinkle), drawn per sample"
     )
     sources: Sources = Field(Sources(), description="where a deformed shape comes from: lattice keys, bank or both")
@@ -205,7 +213,7 @@ class SurfaceConfig(_Model):
         description="surface kinds drawn per sample (procedural materials; photo: a picture from photos)",
     )
     photos: Path | None = Field(None, description="folder of texture photos (table tops, floors) for kind photo")
-    scale: PositiveRange = Field(
+    scale: Annotated[Range, Within(hi=100, above=0)] = Field(
         (0.6, 1.6), description="texture scale: 1 = wood grain, weave, ridges at a real part's size"
     )
 
@@ -223,14 +231,14 @@ class RenderConfig(_Model):
     samples: int = Field(16, ge=1, le=4096, description="Cycles samples per pixel")
     denoise: bool = Field(True, description="denoise each render (OpenImageDenoise)")
     device: Literal["auto", "cpu", "gpu"] = Field("auto", description="auto = a GPU when Blender finds one")
-    threads: int = Field(0, ge=0, description="Cycles threads per worker; 0 = cores / workers")
+    threads: int = Field(0, ge=0, le=1024, description="Cycles threads per worker; 0 = cores / workers")
     render_backgrounds: bool = Field(
         False,
         description="render the black and green variants with Cycles instead of compositing them over the "
         "exact alpha (identical for opaque objects, 3x slower)",
     )
     dense: bool = Field(False, description="also write mask, depth, normal, deformation and region maps per image")
-    region_threshold_mm: float = Field(1.0, gt=0, description="deformation (mm) from which a pixel is in the region")
+    region_threshold_mm: float = Field(1.0, gt=0, le=1000, description="deformation (mm) from which a pixel is in the region")
     creases: bool = Field(False, description="scuffed bare metal on sharp ridges and darkened folds (Cycles pointiness)")
     shadow: bool = Field(
         False, description="also write images/shadow/ID.png: the shadow and contact occlusion the part casts on a "
@@ -252,8 +260,8 @@ class RenderConfig(_Model):
     volume_bounces: int = Field(0, ge=0, le=1024, description="volume bounces")
     caustics_reflective: bool = Field(True, description="reflective caustics")
     caustics_refractive: bool = Field(True, description="refractive caustics")
-    clamp_direct: float = Field(0.0, ge=0, description="clamp direct light samples to this value; 0 = off")
-    clamp_indirect: float = Field(10.0, ge=0, description="clamp indirect light samples to this value; 0 = off")
+    clamp_direct: float = Field(0.0, ge=0, le=1_000_000, description="clamp direct light samples to this value; 0 = off")
+    clamp_indirect: float = Field(10.0, ge=0, le=1_000_000, description="clamp indirect light samples to this value; 0 = off")
     denoise_input: Literal["rgb", "rgb_albedo", "rgb_albedo_normal"] = Field(
         "rgb_albedo_normal", description="guide passes given to the denoiser"
     )
@@ -269,11 +277,6 @@ class RenderConfig(_Model):
         "None", description="contrast look on top of the view transform (Punchy: AgX only)"
     )
 
-    @property
-    def scene_kinds(self) -> tuple[str, ...]:
-        """The extra images each render writes after the part's own (dataset.layout.SCENE_KINDS), in order."""
-        return tuple(k for k, on in (("shadow", self.shadow), ("surface", self.surface is not None)) if on)
-
     @model_validator(mode="after")
     def _look(self) -> "RenderConfig":
         if self.look == "Punchy" and self.view_transform != "AgX":
@@ -285,15 +288,18 @@ class GenerateConfig(_Model):
     """Dataset size, seed and the worker pool. A dataset can be resumed or extended with other values of the
     settings that are not in its identity."""
 
-    n: Annotated[int, identity.NEVER] = Field(64, ge=1, description="number of images (intact + deformed)")
-    seed: int = Field(0, description="seed of every random draw of every sample")
+    n: Annotated[int, identity.NEVER] = Field(
+        64, ge=1, le=MAX_IMAGES, description="number of images (intact + deformed); more than "
+        f"{CONFIRM_IMAGES} ask for --yes"
+    )
+    seed: Seed = Field(0, description="seed of every random draw of every sample")
     intact_fraction: float = Field(0.5, ge=0, le=1, description="share of intact samples, spread evenly over them")
-    workers: Annotated[int, identity.NEVER] = Field(0, ge=0, description="render processes; 0 = automatic")
+    workers: Annotated[int, identity.NEVER] = Field(0, ge=0, le=1024, description="render processes; 0 = automatic")
     recycle_every: Annotated[int, identity.NEVER] = Field(
-        200, ge=1, description="restart a worker after this many images"
+        200, ge=1, le=10**6, description="restart a worker after this many images"
     )
     max_retries: Annotated[int, identity.NEVER] = Field(
-        2, ge=0, description="retries of a failed sample before it is recorded in failures.json"
+        2, ge=0, le=100, description="retries of a failed sample before it is recorded in failures.json"
     )
     backend: Annotated[Literal["local", "ray"], identity.NEVER] = Field(
         "local", description="local: worker processes on this machine; ray: actors on a Ray cluster"
@@ -304,22 +310,22 @@ class GenerateConfig(_Model):
     gather: Annotated[bool, identity.NEVER] = Field(
         False, description="Ray: render on each node's local disk and return the images to the driver"
     )
-    preview: Annotated[int, identity.NEVER] = Field(16, ge=0, description="images on the contact sheet")
+    preview: Annotated[int, identity.NEVER] = Field(16, ge=0, le=1024, description="images on the contact sheet")
 
 
 class CameraEffects(_Model):
     """Camera effects drawn per composite; null turns one off."""
 
-    exposure: OrderedRange | None = Field((-0.5, 0.5), description="exposure change in stops")
-    white_balance: OrderedRange | None = Field((-0.08, 0.08), description="red/blue gain shift (warm > 0)")
-    vignette: NonNegativeRange | None = Field((0.0, 0.35), description="darkening at the corners")
-    blur: NonNegativeRange | None = Field(
+    exposure: Annotated[Range, Within(-20, 20)] | None = Field((-0.5, 0.5), description="exposure change in stops")
+    white_balance: Annotated[Range, Within(-1, 1)] | None = Field((-0.08, 0.08), description="red/blue gain shift (warm > 0)")
+    vignette: UnitRange | None = Field((0.0, 0.35), description="darkening at the corners")
+    blur: UnitRange | None = Field(
         (0.0, 0.006), description="defocus: Gaussian sigma as a fraction of the image size"
     )
-    motion_blur: Range | None = Field(
+    motion_blur: UnitRange | None = Field(
         None, description="camera shake: blur along a random direction, its length a fraction of the image size"
     )
-    noise: NonNegativeRange | None = Field((0.0, 0.025), description="sensor noise: standard deviation in 0-1 units")
+    noise: UnitRange | None = Field((0.0, 0.025), description="sensor noise: standard deviation in 0-1 units")
     jpeg_quality: Annotated[tuple[int, int], Within(1, 100)] | None = Field(
         (45, 95), description="JPEG re-compression quality"
     )
@@ -331,20 +337,20 @@ class CompositeConfig(_Model):
     matte: Literal["alpha", "chroma", "inrange"] = Field(
         "chroma", description="alpha: exact render alpha; chroma: soft green key; inrange: the paper's hard key"
     )
-    key_color: tuple[int, int, int] = Field((0, 255, 0), description="RGB colour of the screen behind the part")
+    key_color: tuple[Byte, Byte, Byte] = Field((0, 255, 0), description="RGB colour of the screen behind the part")
     tolerance: int = Field(
         60, ge=0, le=255, description="key tolerance (0-255): how far from the screen a pixel still counts as screen"
     )
-    close_kernel: int = Field(5, ge=0, description="closing of the part's key mask: kernel size in pixels")
-    open_kernel: int = Field(3, ge=0, description="opening of the part's key mask: kernel size in pixels")
-    erode_kernel: int = Field(3, ge=0, description="erosion at the part's edge: kernel size in pixels")
+    close_kernel: int = Field(5, ge=0, le=255, description="closing of the part's key mask: kernel size in pixels")
+    open_kernel: int = Field(3, ge=0, le=255, description="opening of the part's key mask: kernel size in pixels")
+    erode_kernel: int = Field(3, ge=0, le=255, description="erosion at the part's edge: kernel size in pixels")
     backgrounds: Path | None = Field(None, description="folder of photos; null = procedural backgrounds")
-    scale_jitter: Annotated[Range, Within(1.0)] = Field(
+    scale_jitter: Annotated[Range, Within(1.0, 100)] = Field(
         (1.0, 1.3), description="zoom into the background photo, drawn per image (1 = the photo just covers the frame)"
     )
     flip: bool = Field(True, description="mirror background photos left-right at random")
     flip_part: float = Field(0.0, ge=0, le=1, description="probability of mirroring the part (and its maps) left-right")
-    workers: int = Field(0, ge=0, description="composite processes; 0 = automatic")
+    workers: int = Field(0, ge=0, le=1024, description="composite processes; 0 = automatic")
     variants: list[str] = Field(
         ["black", "backgrounds"], description="variants deformsim run makes: black and green are the renders; "
         "backgrounds composites onto composite.backgrounds (procedural backgrounds when it is null)"
@@ -377,12 +383,12 @@ class TrainConfig(_Model):
         "imagenet", description="imagenet: torchvision's weights, else the offline package's; offline: the offline "
         "package's only; none: random initialisation"
     )
-    image_size: int = Field(224, ge=32, description="input size in pixels (images are resized to it)")
-    hidden: tuple[int, int] = Field((256, 128), description="widths of the mlp head's two hidden layers")
+    image_size: int = Field(224, ge=32, le=1024, description="input size in pixels (images are resized to it)")
+    hidden: tuple[Width, Width] = Field((256, 128), description="widths of the mlp head's two hidden layers")
     dropout: float = Field(0.5, ge=0, lt=1, description="dropout in the head")
-    lr: float = Field(1e-3, gt=0, description="Adam learning rate")
-    batch_size: int = Field(32, ge=1, description="images per batch")
-    epochs: int = Field(15, ge=1, description="passes over the training images")
+    lr: float = Field(1e-3, gt=0, le=10, description="Adam learning rate")
+    batch_size: int = Field(32, ge=1, le=4096, description="images per batch")
+    epochs: int = Field(15, ge=1, le=10_000, description="passes over the training images")
     split: float = Field(
         0.8, gt=0, lt=1, description="share of the rendered objects that trains (the rest validates; an object's "
         "cameras stay on one side)"
@@ -396,7 +402,7 @@ class TrainConfig(_Model):
         ["black", "backgrounds"], description="image variants the report trains and evaluates on; the first is "
         "deformsim train's default"
     )
-    seed: int = Field(0, description="seed of the split, the initialisation and the batch order")
+    seed: Seed = Field(0, description="seed of the split, the initialisation and the batch order")
     device: Literal["auto", "cpu", "cuda"] = Field("auto", description="auto = cuda when available")
     finetune: Literal["last_conv", "last_block"] = Field(
         "last_conv", description="trainable part of the backbone: its last convolution (the paper) or last block"
@@ -409,7 +415,7 @@ class TrainConfig(_Model):
         "adabn", description="with unlabelled photos: adabn re-estimates feature statistics; selftrain adds "
         "confident pseudo-labels of the photos and trains on"
     )
-    adapt_epochs: int = Field(5, ge=1, description="selftrain: epochs on synthetic + pseudo-labelled photos")
+    adapt_epochs: int = Field(5, ge=1, le=10_000, description="selftrain: epochs on synthetic + pseudo-labelled photos")
     pseudo_confidence: float = Field(0.9, gt=0.5, lt=1, description="selftrain: keep photos predicted this surely")
     target: Literal["label", "severity", "family", "localise"] = Field(
         "label", description="label: intact/deformed (the paper); on dense datasets also severity (max displacement, "
@@ -463,7 +469,8 @@ def load_config(source: str | Path | None = None, overrides: dict | None = None,
 
 
 def apply_overrides(data: dict, overrides: dict | None) -> dict:
-    """``data`` with dotted keys (``"render.resolution"``) set to their values; ``None`` values are ignored."""
+    """``data`` with dotted keys (``"render.resolution"``) set to their values; ``None`` values are ignored, and so
+    is a key under a value that is no mapping (validation names that value)."""
     for key, value in (overrides or {}).items():
         if value is None:
             continue
@@ -471,7 +478,10 @@ def apply_overrides(data: dict, overrides: dict | None) -> dict:
         *parents, leaf = key.split(".")
         for p in parents:
             node = node.setdefault(p, {})
-        node[leaf] = value
+            if not isinstance(node, dict):
+                break
+        else:
+            node[leaf] = value
     return data
 
 
@@ -483,9 +493,8 @@ def validate_config(data: dict, origin: str = "config", overrides: dict | None =
     try:
         return Config.model_validate(data)
     except ValidationError as exc:
-        err = exc.errors()[0]
-        where = ".".join(str(p) for p in err["loc"]) or "config"
-        msg = err["msg"].removeprefix("Value error, ")
+        loc, msg, value = first_error(exc, data)
+        where = ".".join(str(p) for p in loc) or "config"
         given = overrides or {}
         key = next((k for k in given if where == k or where.startswith(f"{k}.")), None)
         what = f"invalid {where}: {msg}"
@@ -493,8 +502,8 @@ def validate_config(data: dict, origin: str = "config", overrides: dict | None =
             key, what = next((k for k in given if k in msg), None), msg
         if key is not None:
             flag = (flags or {}).get(key) or f"override {key}"
-            raise UserError(f"{flag} {given[key]}: {what}") from None
-        raise UserError(f"{origin}: invalid {where}: {msg} (got {err.get('input')!r})") from None
+            raise UserError(f"{flag} {shown(given[key])}: {what}") from None
+        raise UserError(f"{origin}: invalid {where}: {msg} (got {shown(value)})") from None
 
 
 def list_presets() -> list[str]:

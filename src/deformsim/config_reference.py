@@ -20,6 +20,7 @@ from typing import Annotated, Literal, Union, get_args, get_origin
 import annotated_types as at
 import yaml
 from pydantic import BaseModel
+from pydantic.fields import FieldInfo
 from pydantic_core import to_jsonable_python
 
 from deformsim.config import Config
@@ -64,7 +65,8 @@ def kind(annotation: object, metadata: tuple | list = ()) -> str:
     """The values a field of type ``annotation`` (with pydantic ``metadata``) takes, in words."""
     origin, args = get_origin(annotation), get_args(annotation)
     if origin is Annotated:
-        return kind(args[0], [*annotation.__metadata__, *metadata])
+        inner = [m for a in annotation.__metadata__ for m in (a.metadata if isinstance(a, FieldInfo) else [a])]
+        return kind(args[0], [*inner, *metadata])
     if origin in (Union, UnionType):
         text = " or ".join(kind(a) for a in args if a is not NoneType) + (" or null" if NoneType in args else "")
     elif origin is Literal:
@@ -97,9 +99,11 @@ def _limits(metadata: tuple | list) -> list[str]:
             first = f"{m.lo} ≤ min" if m.lo is not None else f"{m.above} < min" if m.above is not None else "min"
             out.append(f"{first} ≤ max" + (f" ≤ {m.hi}" if m.hi is not None else ""))
         elif isinstance(m, Above):
-            out.append(f"above {m.bound}")
+            out.append(f"above {m.bound}" + (f", at most {m.hi}" if m.hi is not None else ""))
         elif isinstance(m, NonEmpty) or (isinstance(m, at.MinLen) and m.min_length == 1):
             out.append("at least one")
+        elif isinstance(m, at.MaxLen):
+            out.append(f"at most {m.max_length}")
         elif isinstance(m, at.Ge | at.Gt):
             low = (m.ge, False) if isinstance(m, at.Ge) else (m.gt, True)
         elif isinstance(m, at.Le | at.Lt):

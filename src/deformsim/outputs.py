@@ -1,10 +1,12 @@
 """Output paths: checked before any work starts, never silently replaced or mixed.
 
-An output folder (a dataset, a model, a report) records what it was made from in ``inputs.json``. A command
-writing into an existing one goes on only when it holds the same kind of output made with the same settings
-and inputs; otherwise it stops with one line unless ``--overwrite`` is given, and then the new output is built
-beside the old one and swapped in whole, so nothing of the old one is left. A folder that holds files but no
-recognisable output is never replaced.
+An output folder knows what it holds: a dataset, model or report names its kind in ``inputs.json`` (with what it
+was made from), an export in ``export.json``; one made before kinds were recorded is known by its files
+(:data:`SIGNS`). A command writing into an existing folder goes on only when it holds the same kind of output
+made with the same settings and inputs; otherwise it stops with one line, naming what it found, unless
+``--overwrite`` is given and the folder holds that kind and nothing else: then the new output is built beside
+the old one and swapped in whole, so nothing of the old one is left. A folder holding another kind, or files but
+no recognisable output, is never replaced, and no output folder is an input of the same command or holds one.
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ from __future__ import annotations
 import errno
 import json
 import os
+import pwd
+import re
 import shutil
 import tempfile
 import uuid
@@ -21,15 +25,17 @@ from typing import Iterator
 
 from deformsim.atomic import write_json
 from deformsim.errors import ResourceError, UserError
+from deformsim.schema import shown
 
 INPUTS = "inputs.json"
-# files that mark a folder as holding an output of each kind
-MARKERS = {
-    "dataset": ("config.yaml", "samples", "manifest.parquet"),
-    "model": ("model.pt", "train.json", INPUTS),
-    "report": ("metrics.json", "report.html", INPUTS),
-}
+EXPORT = "export.json"
+KINDS = ("dataset", "model", "report", "export")
+# the files every output of a kind holds, by which one made before kinds were recorded is known
+SIGNS = {"dataset": ("config.yaml", "samples"), "model": ("model.pt", "train.json"),
+         "report": ("report.html", "metrics.json")}
 DISK_FULL = (errno.ENOSPC, errno.EDQUOT)
+# what `replacing` and `remove_folder` leave beside a target when killed: `.NAME.staging-PID-...` and the like
+_LEFTOVER = re.compile(r"(staging|old|removing)-(\d+)-[^.]+")
 
 
 def _nearest_existing(path: Path) -> Path:
@@ -74,8 +80,77 @@ def check_folder_target(path: str | Path, flag: str, replace: bool = False) -> P
     return path
 
 
-def holds(folder: Path, kind: str) -> bool:
-    return any((folder / m).exists() for m in MARKERS[kind])
+def read_inputs(folder: Path) -> dict | None:
+    return _read_dict(Path(folder) / INPUTS)
+
+
+def _read_dict(path: Path) -> dict | None:
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def kinds_in(folder: str | Path) -> set[str]:
+    """The kinds of output ``folder`` holds: those its ``inputs.json`` and ``export.json`` name, and those whose
+    :data:`SIGNS` are all there. More than one means a mixed folder, which nothing replaces."""
+    folder = Path(folder)
+    found = {k for k, files in SIGNS.items() if all((folder / f).exists() for f in files)}
+    recorded = read_inputs(folder)
+    if recorded is not None and recorded.get("kind") in KINDS:
+        found.add(recorded["kind"])
+    if (folder / EXPORT).is_file():
+        found.add("export")
+    return found
+
+
+def _article(kind: str) -> str:
+    return "an" if kind[0] in "aeiou" else "a"
+
+
+def check_kind(out: str | Path, kind: str, flag: str = "--out") -> bool:
+    """May a ``kind`` go to ``out`` (a folder path already checked)? True when it holds one, False when it is new
+    or empty; a :class:`UserError` naming what it holds otherwise (such a folder is never replaced)."""
+    out = Path(out)
+    if not out.is_dir() or not any(out.iterdir()):
+        return False
+    found = kinds_in(out)
+    if found == {kind}:
+        return True
+    if not found:
+        raise UserError(f"{flag} {out} holds files but no deformsim {kind}: choose a new or empty folder "
+                        "(it is never replaced)")
+    if len(found) == 1:
+        what = f"a deformsim {found.pop()}"
+    else:
+        what = "the files of " + " and ".join(f"{_article(k)} {k}" for k in sorted(found))
+    raise UserError(f"{flag} {out} holds {what}, not {_article(kind)} {kind}: choose a new or empty folder "
+                    "(it is never replaced)")
+
+
+def check_apart(out: str | Path, flag: str, inputs: dict[str, str | Path | None]) -> None:
+    """A :class:`UserError` when an input (its description -> its path) is ``out`` or lies inside it: replacing
+    ``out`` would remove it."""
+    target = Path(out).resolve()
+    for what, path in inputs.items():
+        if path is None:
+            continue
+        source = Path(path).resolve()
+        if source == target:
+            raise UserError(f"{flag} {out} is the {what} {path}: choose an output folder outside it")
+        if source.is_relative_to(target):
+            raise UserError(f"{flag} {out} contains the {what} {path}, which replacing it would remove: choose an "
+                            "output folder outside it")
+
+
+def check_outside(out: str | Path, flag: str, folders: dict[str, str | Path | None]) -> None:
+    """A :class:`UserError` when ``out`` is or lies inside a folder read whole (its description -> its path): what
+    is written there would be read as input next time."""
+    target = Path(out).resolve()
+    for what, path in folders.items():
+        if path is not None and target.is_relative_to(Path(path).resolve()):
+            raise UserError(f"{flag} {out} is or lies inside the {what} {path}: choose an output folder outside it")
 
 
 def _differences(a, b, prefix: str = "") -> list[tuple[str, object, object]]:
@@ -99,30 +174,20 @@ def _first_difference(a, b) -> str:
 
 
 def _short(v) -> str:
-    text = repr(v)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def read_inputs(folder: Path) -> dict | None:
-    try:
-        data = json.loads((Path(folder) / INPUTS).read_text())
-    except (OSError, ValueError):
-        return None
-    return data if isinstance(data, dict) else None
+    """A recorded value for an error line: a text quoted, anything else as :func:`shown` writes it."""
+    return repr(shown(v, 58)) if isinstance(v, str) else shown(v, 60)
 
 
 def claim(out: str | Path, kind: str, identity: dict, overwrite: bool, flag: str = "--out") -> bool:
     """May a new ``kind`` made from ``identity`` go to ``out``? Checked before any work; True when one is there.
 
     A :class:`UserError` when ``out`` is a file, lies under a file or cannot be written; when it is a folder
-    with files but no ``kind``; or when it holds a ``kind`` made from something else and ``overwrite`` is off.
+    with files but not a ``kind`` alone (:func:`check_kind`); or when it holds a ``kind`` made from something else
+    and ``overwrite`` is off.
     """
     out = check_folder_target(out, flag, replace=True)  # built beside it, then swapped in
-    if not out.is_dir() or not any(out.iterdir()):
+    if not check_kind(out, kind, flag):
         return False
-    if not holds(out, kind):
-        raise UserError(f"{flag} {out} holds files but no deformsim {kind}: choose a new or empty folder "
-                        "(it is never replaced)")
     if overwrite:
         return True
     old = read_inputs(out)
@@ -136,12 +201,48 @@ def claim(out: str | Path, kind: str, identity: dict, overwrite: bool, flag: str
     return True
 
 
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` may still run (another user's, or a number no process has, counts as alive)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True
+    return True
+
+
+def sweep(out: str | Path) -> None:
+    """Remove what a killed :func:`replacing` or :func:`remove_folder` of ``out`` left beside it (its process is
+    gone): staging and half-removed folders go; the old folder of an interrupted swap is put back when ``out``
+    is missing."""
+    out = Path(out)
+    prefix = f".{out.name}."
+    try:
+        names = [p for p in out.parent.iterdir() if p.name.startswith(prefix)]
+    except OSError:
+        return
+    for path in sorted(names):
+        m = _LEFTOVER.fullmatch(path.name[len(prefix):])
+        if m is None or not path.is_dir() or _alive(int(m.group(2))):
+            continue
+        if m.group(1) == "old" and not out.exists():
+            os.rename(path, out)
+        else:
+            shutil.rmtree(path, ignore_errors=True)
+
+
+def _beside(out: Path, what: str) -> Path:
+    return out.parent / f".{out.name}.{what}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+
+
 def remove_folder(folder: Path) -> None:
     """Remove ``folder`` as a whole: renamed aside first, so it is gone at once whatever is interrupted."""
     folder = Path(folder)
+    sweep(folder)
     if not folder.exists():
         return
-    trash = folder.parent / f".{folder.name}.removing-{uuid.uuid4().hex[:8]}"
+    trash = _beside(folder, "removing")
     os.rename(folder, trash)
     shutil.rmtree(trash, ignore_errors=True)
 
@@ -151,18 +252,20 @@ def replacing(out: str | Path, identity: dict | None = None, kind: str | None = 
     """Yield an empty staging folder beside ``out``; when the block succeeds it takes ``out``'s place whole.
 
     ``identity`` (with ``kind``) is recorded in ``inputs.json``. On failure (or Ctrl-C) the staging folder is
-    removed and ``out`` is left as it was.
+    removed and ``out`` is left as it was; what a killed run left beside ``out`` is removed first (:func:`sweep`).
     """
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.staging-", dir=out.parent))
+    sweep(out)
+    staging = _beside(out, "staging")
+    staging.mkdir()
     try:
         yield staging
         if identity is not None:
             write_json(staging / INPUTS, {"kind": kind, **identity})
         old = None
         if out.exists():
-            old = out.parent / f".{out.name}.old-{uuid.uuid4().hex[:8]}"
+            old = _beside(out, "old")
             os.rename(out, old)
         os.rename(staging, out)
         if old is not None:
@@ -179,7 +282,28 @@ def os_error_line(exc: OSError) -> tuple[str, int]:
     return f"{exc.strerror or exc}{where}: check the path and its permissions", UserError.exit_code
 
 
+def _home() -> Path | None:
+    """The user's home folder: ``$HOME`` when it is an absolute folder, else the passwd database's."""
+    candidates = [os.environ.get("HOME") or ""]
+    try:
+        candidates.append(pwd.getpwuid(os.getuid()).pw_dir)
+    except KeyError:  # no passwd entry for this uid (a container's --user)
+        pass
+    return next((Path(c) for c in candidates if os.path.isabs(c) and Path(c) != Path("/") and Path(c).is_dir()),
+                None)
+
+
 def cache_dir() -> Path:
-    """Where converted weights, feature caches and deformation banks live: ``$DEFORMSIM_CACHE`` or
-    ``~/.cache/deformsim``."""
-    return Path(os.environ.get("DEFORMSIM_CACHE") or Path.home() / ".cache" / "deformsim")
+    """Where converted weights, feature caches and deformation banks live, an absolute folder:
+    ``$DEFORMSIM_CACHE`` (a relative one taken from the working folder), else ``$XDG_CACHE_HOME/deformsim``,
+    else ``~/.cache/deformsim`` (the home of :func:`_home`)."""
+    if os.environ.get("DEFORMSIM_CACHE"):
+        return Path(os.environ["DEFORMSIM_CACHE"]).expanduser().absolute()
+    xdg = os.environ.get("XDG_CACHE_HOME") or ""
+    if os.path.isabs(xdg):  # a relative one is to be ignored (XDG base directory spec)
+        return Path(xdg) / "deformsim"
+    home = _home()
+    if home is None:
+        raise UserError(f"no folder for deformsim's cache: HOME is {_short(os.environ.get('HOME', ''))} and the user "
+                        f"database names no home folder: set DEFORMSIM_CACHE to an absolute folder")
+    return home / ".cache" / "deformsim"

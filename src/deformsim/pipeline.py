@@ -5,7 +5,8 @@ the HDRI, background and real photos), never by their paths or times; a stage wh
 hash matches the one recorded in ``OUT/stages.json`` is skipped. The dataset folder is named after the hash of
 the settings and input contents that determine the renders, so changing only training settings reuses the
 renders, growing ``n`` resumes, and an edited mesh or spec renders a new dataset. The report is built beside
-the old one and replaces it whole.
+the old one and replaces it whole. ``OUT`` holds no other deformsim output, no input lies in a folder the run
+replaces (the dataset, the report), and ``OUT`` does not lie in a folder of photos it reads.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from deformsim.generate.identity import data_identity
 from deformsim.generate.stage import prepare
 from deformsim.identity import digest, files_digest
 from deformsim.log import get_logger
-from deformsim.outputs import check_folder_target
+from deformsim.outputs import check_apart, check_folder_target, check_outside, kinds_in, sweep
 from deformsim.report.stage import make_report, real_digest
 from deformsim.spec.model import load_spec
 
@@ -58,6 +59,14 @@ class Stages:
         write_json(self.path, self.stamps)
 
 
+def _inputs(cfg: Config, real: Path | None) -> dict[str, Path | None]:
+    """Every file and folder a run reads, by what it is."""
+    surface = cfg.render.surface
+    return {"real photos": real, "backgrounds folder": cfg.composite.backgrounds, "mesh": cfg.object.mesh,
+            "spec": cfg.object.spec, "HDRI folder": cfg.lighting.hdri_dir,
+            "surface photo folder": surface.photos if surface is not None else None}
+
+
 def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True, overwrite: bool = False) -> RunResult:
     """Run every stage for ``cfg`` into ``out``; returns where things are and what each stage took.
 
@@ -69,9 +78,17 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     from deformsim.generate.stage import generate
 
     out = check_folder_target(out, "--out")
+    found = kinds_in(out)
+    if found:
+        raise UserError(f"--out {out} holds a deformsim {' and '.join(sorted(found))}, not a run: choose a new or "
+                        "empty folder, or an earlier run's")
     spec = load_spec(cfg.object.spec)
     identity = data_identity(cfg, spec)
     data = out / f"data-{digest(identity)}"
+    inputs = _inputs(cfg, real)
+    for replaced, what in ((data, "the run's dataset folder"), (out / "report", "the run's report folder")):
+        check_apart(replaced, what, inputs)
+    check_outside(out, "--out", {k: v for k, v in inputs.items() if k in ("real photos", "backgrounds folder")})
     prepared = prepare(cfg, data, overwrite, spec)  # every input check before any work
     real_id = real_digest(real)
     backgrounds = cfg.composite.backgrounds
@@ -79,6 +96,7 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
         raise UserError(f"backgrounds folder not found: {backgrounds}")
     photos_id = files_digest(images_in(Path(backgrounds)), backgrounds) if backgrounds is not None else None
     out.mkdir(parents=True, exist_ok=True)
+    sweep(data)  # what a killed --overwrite left of it (the report's go with its replacing)
     stages = Stages(out)
     result = RunResult(out=out, data=data, report=out / "report" / "report.html")
 

@@ -55,3 +55,11 @@ def test_not_a_dataset(tmp_path):
     (tmp_path / "data").mkdir()
     res = invoke(tmp_path / "data", tmp_path / "out", "--format", "coco")
     assert res.exit_code == 2 and "not a generated dataset" in res.output
+
+
+def test_copy_makes_an_independent_export(data, tmp_path):
+    res = invoke(data, tmp_path / "out", "-f", "imagefolder", "--copy", "--no-progress")
+    assert res.exit_code == 0, res.output
+    assert "(8 copied)" in res.output and "hard-linked" not in res.output
+    assert all(p.stat().st_nlink == 1 for p in (tmp_path / "out").rglob("*.png"))
+    assert "Every file here is a copy" in (tmp_path / "out" / "README.txt").read_text()

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+
 import pandas as pd
 import pytest
 from typer.testing import CliRunner
@@ -47,9 +50,59 @@ def test_localise_needs_region_masks(data, config, tmp_path):
     plain = tmp_path / "plain"
     plain.mkdir()
     (tmp_path / "manifest.parquet").rename(plain / "manifest.parquet")
-    (plain / "images").symlink_to(data / "images")
+    shutil.copytree(data / "images", plain / "images")  # a symlink out of the dataset would be refused
     res = invoke("train", plain, "--out", tmp_path / "m", "--target", "localise", "-c", config, *TRAIN)
     assert res.exit_code == 2 and "render.dense: true" in res.output and "region" in res.output
     assert len(res.output.strip().splitlines()) == 1
     res = invoke("train", data, "--out", tmp_path / "m", "--target", "depth", "-c", config, *TRAIN)
     assert res.exit_code == 2 and "depth" in res.output
+
+
+def _one_error_line(res, code, *words):
+    """Exit ``code`` with one error line (after any line saying what the command does) holding ``words``."""
+    lines = res.output.strip().splitlines()
+    errors = [line for line in lines if line.startswith("error:")]
+    assert res.exit_code == code and errors == lines[-1:] and "Traceback" not in res.output, res.output
+    assert all(w in errors[0] for w in words), errors[0]
+
+
+def test_a_truncated_variant_manifest_is_one_line_for_train_and_evaluate(config, tmp_path):
+    from deformsim.composite.stage import composite
+    from deformsim.config import CompositeConfig
+    from tests.fake_dense import make_dense_dataset as make_rendered
+
+    data = make_rendered(tmp_path / "data", dense=False)
+    composite(data, CompositeConfig(workers=1), "comp", progress=False)
+    manifest = data / "variants" / "comp" / "manifest.parquet"
+    manifest.write_bytes(manifest.read_bytes()[:64])
+    _one_error_line(invoke("train", data, "--out", tmp_path / "m", "--variant", "comp", "-c", config, *TRAIN), 2,
+                    str(manifest), "unreadable")
+    assert invoke("train", data, "--out", tmp_path / "m", "--variant", "black", "-c", config, *TRAIN).exit_code == 0
+    _one_error_line(invoke("evaluate", tmp_path / "m", "--data", data, "--variant", "comp"), 2, str(manifest))
+
+
+def test_training_on_one_class_is_refused_in_one_line(data, config, tmp_path):
+    one = tmp_path / "one"
+    shutil.copytree(data, one, ignore=shutil.ignore_patterns("variants"))
+    manifest = pd.read_parquet(one / "manifest.parquet")
+    manifest[manifest["y"] == 1].to_parquet(one / "manifest.parquet", index=False)
+    res = invoke("train", one, "--out", tmp_path / "m", "--variant", "black", "-c", config, *TRAIN)
+    _one_error_line(res, 2, f"variant 'black' of {one}", "0 intact and 8 deformed", "both classes")
+    assert not (tmp_path / "m").exists()
+
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """A 1 MiB tmpfs: room for small files, none for a model (needs root; skipped elsewhere)."""
+    folder = tmp_path / "full"
+    folder.mkdir()
+    if not shutil.which("mount") or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(folder)],
+                                                   capture_output=True).returncode:
+        pytest.skip("cannot mount a tmpfs here (needs root)")
+    yield folder
+    subprocess.run(["umount", "-l", str(folder)], check=True)  # lazy: even while a leaked handle holds it
+
+
+def test_training_onto_a_full_disk_is_one_line(data, config, full_disk):
+    res = invoke("train", data, "--out", full_disk / "m", "--variant", "black", "-c", config, *TRAIN)
+    _one_error_line(res, 1, "model.pt", "disk full")

@@ -1,13 +1,14 @@
 """Outputs are never silently replaced or mixed, and every output path is checked before any work.
 
-Covered: train/report --out and --overwrite; export, evaluate, predict and spec preview targets (a folder, a file
-in the way, an unwritable place); the --real folder rule. A small "generated" dataset is made from the blob
-images (no Blender).
+Covered: train/report --out and --overwrite (never onto another kind of output, nor onto their own inputs); export,
+evaluate, predict and spec preview targets (a folder, a file in the way, an unwritable place); the --real folder
+rule. A small "generated" dataset is made from the blob images (no Blender).
 """
 
 from __future__ import annotations
 
 import json
+import shutil
 import time
 from pathlib import Path
 
@@ -46,7 +47,14 @@ def dataset(blobs, tmp_path_factory) -> Path:
         rows.append({"id": iid, "sample": i, "camera": 0, "label": r.label, "y": r.y,
                      **{k: f"images/{k}/{iid}.png" for k in ("rgba", "black", "green")}})
     pd.DataFrame(rows).to_parquet(root / "manifest.parquet")
+    (root / "samples").mkdir()
+    (root / "config.yaml").write_text("generate: {n: 12}\n")
+    (root / "inputs.json").write_text(json.dumps({"kind": "dataset", "inputs": {}}))  # as generate records it
     return root
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
 @pytest.fixture(scope="module")
@@ -118,6 +126,23 @@ def test_report_refuses_other_settings_and_overwrite_leaves_nothing_stale(datase
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
     (tmp_path / "file").write_text("x")
     assert "is a file" in one_line_error(invoke("report", dataset, "--out", tmp_path / "file", *TRAIN))
+
+
+def test_overwrite_never_replaces_a_dataset_nor_an_input(dataset, config, tmp_path):
+    copy = tmp_path / "D2"
+    shutil.copytree(dataset, copy)
+    before = _files(copy)
+    for command in (["train", dataset, "--variant", "black"], ["report", dataset]):
+        for extra in (["--overwrite"], []):
+            res = invoke(*command, "--out", copy, "--config", config, *extra, *TRAIN)
+            kind = command[0].replace("train", "model")
+            assert f"holds a deformsim dataset, not a {kind}" in one_line_error(res), command + extra
+    assert _files(copy) == before
+    res = invoke("train", copy, "--variant", "black", "--out", copy, "--overwrite", "--config", config, *TRAIN)
+    assert "is the training data" in one_line_error(res)
+    res = invoke("report", copy, "--out", tmp_path, "--overwrite", "--config", config, *TRAIN)
+    assert "contains the dataset" in one_line_error(res)
+    assert _files(copy) == before
 
 
 def test_export_checks_its_path_before_reading_the_model(model, tmp_path):

@@ -4,6 +4,11 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import nullcontext
 
 import cv2
@@ -15,10 +20,13 @@ from typer.testing import CliRunner
 
 from deformsim.cli.composite import register
 from deformsim.composite.backgrounds import BackgroundWarning
-from deformsim.composite.stage import composite
+from deformsim.composite.stage import STAGING, composite, sweep_staging
 from deformsim.config import CompositeConfig
 from deformsim.dataset.variants import list_variants, variant_table
 from deformsim.errors import UserError
+from deformsim.parallel import owner_tag
+from tests.fake_dense import make_dense_dataset
+from tests.util import ROOT, child_pids, cli
 
 
 def _photos(tmp_path, backgrounds_dir, n=3):
@@ -42,7 +50,7 @@ def test_procedural_variant_is_readable(dataset):
     assert len(table) == 8 and set(table["y"]) == {0, 1}
     assert table["background"].str.startswith("procedural:").all()
     assert all(os.path.isfile(p) for p in table["path"])
-    assert not list((dataset / "variants" / ".staging").iterdir())
+    assert not list((dataset / "variants").glob(".staging*"))
 
 
 def test_same_seed_same_composites_any_workers(dataset):
@@ -108,7 +116,7 @@ def test_failed_run_keeps_existing_variant(dataset):
     with pytest.raises(UserError, match=victim.name):
         composite(dataset, CompositeConfig(workers=2), "procedural", seed=9, progress=False)
     assert _snapshot(existing) == before
-    assert not list((dataset / "variants" / ".staging").iterdir())
+    assert not list((dataset / "variants").glob(".staging*"))
 
 
 def test_bad_variant_name(dataset):
@@ -171,3 +179,73 @@ def test_framing_and_effects_are_seeded_recorded_and_fill_the_frame(dataset):
     # the object's longer side now fills 80 % of the frame, unless the render could not be cropped that far
     side = max(before[2] - before[0], before[3] - before[1])
     assert row["frame_side"] == pytest.approx(min(side / 0.8, size), abs=1e-6)
+
+
+def _fake_dataset(root, n_samples, size):
+    return make_dense_dataset(root, n_samples=n_samples, cameras=2, size=size, dense=False)
+
+
+def test_a_failing_command_exits_with_its_code_every_time(tmp_path):
+    """pyarrow's thread pool, once started by a read, could abort the interpreter at exit (134) after the error line."""
+    data = _fake_dataset(tmp_path / "data", 2, 32)
+    args = ("composite", str(data), "--backgrounds", str(tmp_path / "nonexistent"), "--no-progress")
+    with ThreadPoolExecutor(4) as pool:  # side by side: a loaded machine is where the abort showed
+        runs = list(pool.map(lambda _: cli(*args), range(12)))
+    assert [r.returncode for r in runs] == [2] * 12, [r.stderr[-300:] for r in runs if r.returncode != 2]
+    assert all(r.stderr.startswith("error: background folder not found") for r in runs)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc"), reason="reads child processes from /proc")
+def test_kill_9_ends_the_workers_and_the_next_run_removes_the_staging_folder(tmp_path):
+    data = _fake_dataset(tmp_path / "data", 60, 256)
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    proc = subprocess.Popen([sys.executable, "-m", "deformsim.cli", "composite", str(data), "--workers", "2",
+                             "--no-progress"], cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    workers: list[int] = []
+    try:
+        deadline = time.monotonic() + 60
+        while len(workers) < 2 and proc.poll() is None and time.monotonic() < deadline:
+            workers = child_pids(proc.pid)
+            time.sleep(0.02)
+        assert len(workers) == 2 and proc.poll() is None, "the run ended before its workers were seen"
+        time.sleep(0.3)  # mid-run: the workers are compositing
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(10)
+        deadline = time.monotonic() + 10
+        while any(map(_alive, workers)) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not [pid for pid in workers if _alive(pid)], "workers outlived their killed parent"
+    finally:
+        proc.kill()
+        for pid in workers:  # a survivor of an old build: ours to end
+            if _alive(pid):
+                os.kill(pid, signal.SIGKILL)
+    assert list((data / "variants").glob(".staging*"))  # what the killed run left
+    composite(data, CompositeConfig(workers=1), None, seed=0, progress=False)
+    assert sorted(p.name for p in (data / "variants").iterdir()) == ["procedural"]
+    assert len(variant_table(data, "procedural")) == 120
+
+
+def test_a_variant_moved_aside_by_a_killed_swap_is_put_back(tmp_path):
+    dead = subprocess.run([sys.executable, "-c", "from deformsim.parallel import owner_tag; print(owner_tag())"],
+                          env={**os.environ, "PYTHONPATH": str(ROOT / "src")}, capture_output=True, text=True,
+                          check=True).stdout.strip()
+    variants = tmp_path / "variants"
+    killed = variants / f"{STAGING}{dead}-abc123"  # killed between moving the old variant aside and the new one in
+    (killed / ".old").mkdir(parents=True)
+    (killed / ".old" / "manifest.parquet").write_text("the old variant")
+    (killed / "comp").mkdir()
+    done = variants / f"{STAGING}{dead}-def456" / ".old"  # killed after the swap: only the old copy is left
+    done.mkdir(parents=True)
+    live = variants / f"{STAGING}{owner_tag()}-ghi789" / "other"  # a run still going: kept
+    live.mkdir(parents=True)
+    sweep_staging(variants)
+    assert sorted(p.name for p in variants.iterdir()) == sorted(["comp", live.parent.name])
+    assert (variants / "comp" / "manifest.parquet").read_text() == "the old variant"

@@ -83,3 +83,23 @@ def test_training_reads_nothing_under_the_real_folder(tmp_path, monkeypatch):
     assert touched == []
     assert results["variants"]["black"]["n_runs"] == 1 and results["real_images"] == 6
     assert results["settings"]["train"]["threshold"] == 0.5
+
+
+def test_a_variant_composited_before_the_dataset_grew_is_composited_again(tmp_path):
+    """``bench sim2real --quick`` then the full one: the dataset grows from 320 to 640 images, its variants too."""
+    import pandas as pd
+
+    from deformsim.config import CompositeConfig
+    from deformsim.evaluate.benchmark import _composite_once
+    from tests.fake_dense import make_dense_dataset
+
+    data = make_dense_dataset(tmp_path / "data", n_samples=4, dense=False)
+    comp = CompositeConfig(workers=1)
+    manifest = data / "variants" / "procedural-x-seed0" / "manifest.parquet"
+    _composite_once(data, comp, "procedural-x-seed0", 0, progress=False)
+    first = manifest.stat().st_mtime_ns
+    _composite_once(data, comp, "procedural-x-seed0", 0, progress=False)
+    assert manifest.stat().st_mtime_ns == first  # same settings, same images: reused
+    make_dense_dataset(data, n_samples=6, dense=False)
+    _composite_once(data, comp, "procedural-x-seed0", 0, progress=False)
+    assert len(pd.read_parquet(manifest)) == 12

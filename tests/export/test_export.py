@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 
 import numpy as np
 import pandas as pd
@@ -178,7 +179,7 @@ def test_out_is_claimed_before_work_and_replaced_whole(dense, tmp_path):
 @pytest.mark.parametrize("call, match", [
     (dict(fmt="yolo"), "'yolo'"),
     (dict(fmt="coco", variant="nope"), "'nope'"),
-    (dict(fmt="coco", out="inside"), "overlap"),
+    (dict(fmt="coco", out="inside"), "lies inside the dataset"),
 ])
 def test_bad_input_is_one_line(dense, tmp_path, call, match):
     out = dense / "x" if call.pop("out", None) else tmp_path / "o"
@@ -192,3 +193,64 @@ def test_engine_exports(dense, tmp_path):
 
     res = Engine().export_data(dense, tmp_path / "e", "imagefolder", variant="black")
     assert res.summary["images"] == 8 and len(list((tmp_path / "e" / "intact").iterdir())) == 4
+
+
+@pytest.mark.parametrize("case", ["absolute", "dotdot", "symlink", "not-an-image", "fifo"])
+def test_every_file_read_is_an_image_inside_the_dataset(tmp_path, case):
+    root = make_dense_dataset(tmp_path / "data", n_samples=2, cameras=1)
+    outside = tmp_path / "secret.png"
+    shutil.copyfile(root / "images" / "black" / "000000_c0.png", outside)  # an image, so only its place is wrong
+    manifest = pd.read_parquet(root / "manifest.parquet")
+    target = root / "images" / "black" / "000001_c0.png"
+    if case == "absolute":
+        manifest.loc[1, "black"] = str(outside)
+    elif case == "dotdot":
+        manifest.loc[1, "black"] = "images/../../secret.png"
+    elif case == "symlink":
+        target.unlink()
+        target.symlink_to(outside)
+    elif case == "not-an-image":
+        target.write_text("not a picture")
+    else:
+        target.unlink()
+        os.mkfifo(target)  # reading it would hang
+    manifest.to_parquet(root / "manifest.parquet")
+    needle = {"not-an-image": "does not open as an image", "fifo": "is not a file"}.get(case, "lies outside the dataset")
+    for fmt in ("imagefolder", "anomalib"):
+        with pytest.raises(UserError, match=f"row 000001_c0.*{needle}") as err:
+            export_data(root, tmp_path / "out", fmt, variant="black", progress=False)
+        assert "\n" not in str(err.value) and not (tmp_path / "out").exists()
+
+
+def test_a_symlink_inside_the_dataset_is_followed(tmp_path):
+    root = make_dense_dataset(tmp_path / "data", n_samples=2, cameras=1)
+    link = root / "images" / "black" / "000001_c0.png"
+    link.unlink()
+    link.symlink_to(root / "images" / "green" / "000001_c0.png")
+    export_data(root, tmp_path / "out", "imagefolder", variant="black", progress=False)
+    assert os.path.samefile(tmp_path / "out" / "deformed" / "000001_c0.png", root / "images" / "green" / "000001_c0.png")
+
+
+def test_the_readme_says_the_export_hard_links_and_copy_makes_it_independent(dense, tmp_path):
+    linked = export_data(dense, tmp_path / "linked", "anomalib", progress=False)
+    assert linked.summary["linked"] == 8
+    assert "hard links to the dataset's own files: editing one in place changes the dataset" in \
+        (tmp_path / "linked" / "README.txt").read_text()
+    res = export_data(dense, tmp_path / "copy", "anomalib", progress=False, copy=True)
+    assert res.summary["linked"] == 0 and json.loads((tmp_path / "copy" / "export.json").read_text())["copy"] is True
+    assert "Every file here is a copy" in (tmp_path / "copy" / "README.txt").read_text()
+    for exported in (tmp_path / "copy").rglob("*.png"):
+        original = dense / "variants" / "framed" / "images" / exported.name
+        if "ground_truth" not in exported.parts:
+            assert not os.path.samefile(exported, original) and exported.read_bytes() == original.read_bytes()
+        assert os.stat(exported).st_nlink == 1  # masks too: nothing shared with the dataset
+
+
+def test_overwrite_never_replaces_a_dataset(dense, tmp_path):
+    other = tmp_path / "other"
+    shutil.copytree(dense, other)
+    (other / "inputs.json").write_text(json.dumps({"kind": "dataset", "inputs": {}}))
+    before = _files(other)
+    with pytest.raises(UserError, match="OUT .*other holds a deformsim dataset, not an export"):
+        export_data(dense, other, "coco", overwrite=True, progress=False)
+    assert _files(other) == before

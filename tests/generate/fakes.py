@@ -33,7 +33,7 @@ def use_fakes(monkeypatch, mode: str = "ok", probe_size=(0.07, 0.07, 0.19)) -> N
 
     monkeypatch.setenv("FAKE_WORKER_MODE", mode)
     monkeypatch.setattr(local, "WorkerProcess", FakeWorker)
-    monkeypatch.setattr(stage, "probe_mesh", lambda mesh, spec, timeout=300: {"size": list(probe_size)})
+    monkeypatch.setattr(stage, "probe_mesh", lambda mesh, spec, timeout=300: {"size": list(probe_size), "vertices": 8})
 
 
 if __name__ == "__main__":  # python tests/generate/fakes.py ARGS: the deformsim command line on fake workers

@@ -161,3 +161,90 @@ def test_sigterm_stops_workers_removes_partial_files_and_says_so(tmp_path):
     time.sleep(0.5)
     assert not any(_alive(pid) for pid in workers)
     assert not list((out / "images").rglob(".*"))  # partial renders removed
+
+
+PROBED_BAD = [
+    ({"size": [0.07, 0.07, float("nan")], "vertices": 8}, "has a size that is not finite"),
+    ({"size": [0.1, 0.1, 0.0], "vertices": 3}, "has 3 vertices: a part needs a solid shape"),
+    ({"size": [0.1, 0.1, 0.0], "vertices": 4}, "is flat (0.1 x 0.1 x 0 m)"),
+    ({"size": [1e35, 1e-4, 1e-4], "vertices": 8}, "is 1e+35 x 0.0001 x 0.0001 m: a part must measure 1e-06 to"),
+]
+
+
+@pytest.mark.parametrize("probed, needle", PROBED_BAD, ids=["nan", "triangle", "flat", "huge"])
+def test_spec_check_and_generate_refuse_the_same_meshes(monkeypatch, tmp_path, carton_part, probed, needle):
+    """One function holds generate's part checks and spec check calls it too: a mesh that imports as no solid part
+    (one triangle, flat, NaN vertices, absurd size) is refused by both, with the same line, before any output."""
+    from deformsim.api import Engine
+    from deformsim.generate import stage
+
+    use_fakes(monkeypatch)
+    monkeypatch.setattr(stage, "probe_mesh", lambda mesh, spec, timeout=300: probed)
+    with pytest.raises(UserError) as by_generate:
+        generate(cfg_for(carton_part, 4), tmp_path / "D", progress=False)
+    with pytest.raises(UserError) as by_check:
+        Engine().spec_check(CARTON_SPEC, carton_part)
+    assert str(by_generate.value) == str(by_check.value) and needle in str(by_check.value)
+    assert not (tmp_path / "D").exists()
+
+
+def test_spec_check_refuses_a_mesh_for_a_built_in_spec_as_generate_does(monkeypatch, tmp_path, carton_part):
+    from deformsim.api import Engine
+    from deformsim.spec.model import BUILTIN_SPEC
+
+    use_fakes(monkeypatch)
+    with pytest.raises(UserError, match="is for the built-in can, not for mesh"):
+        Engine().spec_check(BUILTIN_SPEC, carton_part)
+    assert Engine().spec_check(CARTON_SPEC, carton_part).size == [0.07, 0.07, 0.19]
+
+
+@pytest.mark.parametrize("command", ["generate", "run"])
+def test_a_plan_past_the_limit_prints_its_estimate_and_needs_yes(monkeypatch, tmp_path, command):
+    """`--n 10000000` planned for minutes and gigabytes before the first render: past CONFIRM_IMAGES images the
+    plan is one line with its estimated time and disk, before any planning, unless --yes."""
+    from typer.testing import CliRunner
+
+    from deformsim import pipeline
+    from deformsim.api import Engine
+    from deformsim.cli.app import app
+    from deformsim.config import CONFIRM_IMAGES
+    from deformsim.generate import stage
+
+    calls = []
+    monkeypatch.setattr(stage, "generate", lambda cfg, out, **kw: calls.append(cfg.generate.n))
+    monkeypatch.setattr(pipeline, "run", lambda cfg, out, **kw: calls.append(cfg.generate.n))
+    n = CONFIRM_IMAGES + 4
+    res = CliRunner().invoke(app, [command, "--out", str(tmp_path / "D"), "--n", str(n)])
+    text = " ".join(res.output.split())
+    assert res.exit_code == 2 and calls == [] and not (tmp_path / "D").exists(), text
+    assert f"generate.n {n} is more than {CONFIRM_IMAGES} images: about" in text
+    assert "hours of rendering" in text and "GB of disk; pass --yes" in text and len(text) < 300
+    getattr(Engine("quick", {"generate.n": n}), command)(tmp_path / "D", yes=True)
+    getattr(Engine("quick", {"generate.n": 8}), command)(tmp_path / "E")
+    assert calls == [n, 8]
+
+
+@pytest.mark.parametrize("seed", [str(2**64), str(2**63), "-1"])
+def test_a_seed_beyond_int64_is_refused_before_any_work(tmp_path, seed):
+    """`--seed` beyond 64 bits failed after rendering, with no manifest: now one line before any output."""
+    proc = fake_cli("generate", "--out", str(tmp_path / "D"), "--n", "4", "--seed", seed, "--no-progress")
+    _, err = proc.communicate(timeout=120)
+    text = " ".join(err.split())
+    assert proc.returncode == 2 and f"--seed {seed}: invalid generate.seed" in text and "Traceback" not in err, err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "D").exists()
+
+
+def test_a_mesh_file_with_nan_vertices_is_refused_by_spec_check_and_generate(monkeypatch, tmp_path):
+    """Blender's importer drops NaN vertices, with their faces, so the probe never sees them: the mesh file's
+    numbers are read before it."""
+    from deformsim.api import Engine
+    from tests.spec.test_mesh_numbers import binary_stl
+
+    use_fakes(monkeypatch)
+    mesh = tmp_path / "nan.stl"
+    mesh.write_bytes(binary_stl((0.0, float("nan"), 0.0)))
+    for run in (lambda: generate(cfg_for(mesh, 4), tmp_path / "D", progress=False),
+                lambda: Engine().spec_check(CARTON_SPEC, mesh)):
+        with pytest.raises(UserError, match="nan.stl has vertex coordinates that are NaN or infinite"):
+            run()
+    assert not (tmp_path / "D").exists()

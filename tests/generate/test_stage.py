@@ -176,3 +176,57 @@ def test_ray_cluster_renders_the_same_dataset(tiny_dataset, tmp_path):
         ray.shutdown()
     assert_same_dataset(tiny_dataset, tmp_path / "ray")
     assert_same_dataset(tiny_dataset, tmp_path / "gather")
+
+
+def write_stl(path: Path, vertices: np.ndarray, triangles: list[tuple[int, int, int]]) -> Path:
+    """A binary STL of ``triangles`` (indices into ``vertices``, metres)."""
+    import struct
+
+    data = bytearray(b"\0" * 80 + struct.pack("<I", len(triangles)))
+    for tri in triangles:
+        data += struct.pack("<3f", 0, 0, 0) + b"".join(struct.pack("<3f", *vertices[i]) for i in tri) + b"\0\0"
+    path.write_bytes(bytes(data))
+    return path
+
+
+SQUARE = np.array([[0, 0, 0], [0.1, 0, 0], [0.1, 0.1, 0], [0, 0.1, 0]])
+CUBE = np.array([[x, y, z] for x in (0, 0.1) for y in (0, 0.1) for z in (0, 0.1)])  # index 4x + 2y + z
+CUBE_FACES = [t for a, b, c, d in [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+              for t in ((a, b, c), (a, c, d))]
+
+
+@pytest.mark.blender
+@pytest.mark.parametrize("name, vertices, faces, needle", [
+    ("triangle", SQUARE, [(0, 1, 2)], "has 3 vertices: a part needs a solid shape"),
+    ("flat", SQUARE, [(0, 1, 2), (0, 2, 3)], "is flat"),
+])
+def test_spec_check_refuses_the_meshes_generate_refuses(tmp_path, name, vertices, faces, needle):
+    """`spec check` passed one triangle and a flat mesh that `generate` then rejected: both run
+    the same part checks, so both refuse them in one line, before any output."""
+    mesh = write_stl(tmp_path / f"{name}.stl", vertices, faces)
+    spec = ROOT / "examples" / "carton" / "spec.yaml"
+    check = subprocess.run(cli("spec", "check", str(spec), "--object", str(mesh)), cwd=ROOT, env=env(),
+                           capture_output=True, text=True)
+    out = tmp_path / "out"
+    gen = subprocess.run(cli(*tiny_args(out), "--object", str(mesh), "--spec", str(spec)), cwd=ROOT, env=env(),
+                         capture_output=True, text=True)
+    for proc in (check, gen):
+        assert proc.returncode == 2 and needle in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+    assert check.stderr.split("error:")[-1] == gen.stderr.split("error:")[-1]
+    assert not out.exists()
+
+
+@pytest.mark.blender
+def test_a_mesh_with_nan_vertices_is_refused(tmp_path):
+    """An STL with NaN vertices (which Blender's importer drops, with the faces on them) is refused by spec check
+    and generate in one line, before any output."""
+    vertices = CUBE.astype(float)
+    vertices[7] = np.nan
+    mesh = write_stl(tmp_path / "nan.stl", vertices, CUBE_FACES)
+    spec = ROOT / "examples" / "carton" / "spec.yaml"
+    out = tmp_path / "out"
+    for args in (("spec", "check", str(spec), "--object", str(mesh)),
+                 (*tiny_args(out), "--object", str(mesh), "--spec", str(spec))):
+        proc = subprocess.run(cli(*args), cwd=ROOT, env=env(), capture_output=True, text=True)
+        assert proc.returncode == 2 and "vertex coordinates that are NaN or infinite" in proc.stderr, proc.stderr
+    assert not out.exists()

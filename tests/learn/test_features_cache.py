@@ -72,3 +72,16 @@ def test_cached_predictions_equal_uncached(blobs, counted, tmp_path):
     assert p == pytest.approx(exact, abs=1e-5)
     assert f == pytest.approx(predictor.features(test, "pooled"), rel=1e-4, abs=1e-5)
     assert counted == [16, 6]
+
+
+@pytest.mark.parametrize("entry", [torch.zeros(3), torch.zeros(1, 2, 2, dtype=torch.float64), "not a tensor"])
+def test_an_entry_of_the_wrong_shape_or_kind_is_computed_again_and_replaced(blobs, counted, entry):
+    model, _ = build(CFG)
+    paths = list(blobs["path"][:3])
+    good = F.cached_stem(model, paths, 64, 8)
+    broken = F.cache_dir() / "features" / F.cache_key(model, paths, 64)[1]
+    torch.save(entry, broken)
+    again = F.cached_stem(model, paths, 64, 8)
+    assert counted == [3, 1] and (again - good).abs().max() < 1e-3, (again - good).abs().max()
+    assert torch.equal(torch.load(broken, weights_only=True), again[1])  # replaced: the next run reads it
+    assert torch.equal(F.cached_stem(model, paths, 64, 8), again) and counted == [3, 1]

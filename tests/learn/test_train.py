@@ -117,6 +117,23 @@ def test_split_keeps_objects_together():
 
 def test_bad_table_is_rejected_before_work(tmp_path):
     with pytest.raises(UserError, match="missing"):
-        fit(pd.DataFrame({"id": ["a"], "path": [str(tmp_path / "nope.png")], "y": [1]}), CFG, tmp_path)
+        fit(pd.DataFrame({"id": ["a", "b"], "path": [str(tmp_path / "nope.png")] * 2, "y": [0, 1]}), CFG, tmp_path)
     with pytest.raises(UserError, match="empty"):
         fit(pd.DataFrame({"id": [], "path": [], "y": []}), CFG, tmp_path)
+
+
+def test_a_model_write_that_torch_fails_is_a_resource_error(blobs, tmp_path, monkeypatch):
+    from deformsim.errors import ResourceError
+    from deformsim.learn import checkpoint
+
+    real = torch.save
+
+    def full(obj, f, *args, **kwargs):  # the model's file: what torch.save raises when the disk fills
+        if not Path(getattr(f, "name", f)).name.startswith(".model."):
+            return real(obj, f, *args, **kwargs)
+        raise RuntimeError("[enforce fail at inline_container.cc:672] . unexpected pos 576 vs 534")
+
+    monkeypatch.setattr(checkpoint.torch, "save", full)
+    with pytest.raises(ResourceError, match="cannot write .*model.pt .*unexpected pos.*disk full"):
+        fit(blobs.groupby("y").head(4), CFG.model_copy(update={"epochs": 1}), tmp_path / "m", progress=False)
+    assert not list((tmp_path / "m").iterdir())  # no partial file left

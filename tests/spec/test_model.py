@@ -4,6 +4,7 @@ import pytest
 
 from deformsim.errors import UserError
 from deformsim.spec.model import check_mesh_file, load_spec
+from tests.util import cli
 
 SPEC = """
 name: part
@@ -59,3 +60,53 @@ def test_bad_mesh_files(tmp_path, name, content, needle):
         check_mesh_file(path)
     with pytest.raises(UserError, match="not found"):
         check_mesh_file(tmp_path / "missing.stl")
+
+
+@pytest.mark.parametrize("change, needle", [
+    (("amount: 0.3", "amount: .nan"), "amount=nan must be a finite number"),
+    (("amount: 0.3", "amount: -.inf"), "amount=-inf must be a finite number"),
+    (("amount: 0.3", "amount: 1.0e+300"), "amount=1e+300 must lie in [0, 10]"),
+    (("amount: 0.3", "amount: '0.3'"), "amount=0.3 must be a number"),
+    (("amount: 0.3", "amount: true"), "amount=True must be a number"),
+    (("amount: 0.3", "at: .nan"), "at=nan must be a finite number"),
+    (("op: compress, amount: 0.3", "op: twist, angle: 1.0e+9"), "angle=1000000000.0 must lie in [-720, 720]"),
+    (("op: compress, amount: 0.3", f"op: crumple, seed: {2**64}"), "seed=18446744073709551616 must lie in [0, "),
+    (("op: compress, amount: 0.3", "op: crumple, seed: 1.5"), "seed=1.5 must be an integer"),
+    (("op: compress, amount: 0.3", "op: bend, axis: " + "x" * 5000), "axis must be x or y, got xxx"),
+    (("units: mm", "units: mm\nsize: .nan"), "size: Input should be a finite number"),
+    (("units: mm", "units: mm\nsize: 1.0e+9"), "size: Input should be less than or equal to 1000"),
+    (("units: mm", "units: mm\nlattice: {margin: .inf}"), "lattice.margin: Input should be a finite number"),
+    (("units: mm", "units: mm\ndisplacement: {vertex_rule: {height_band: [.nan, 1]}}"),
+     "displacement.vertex_rule.height_band[0]: Input should be a finite number"),
+    (("units: mm", "units: mm\ndisplacement: {vertex_rule: {group: g}, textures: [{name: t, strength: .nan}]}"),
+     "textures 't'.strength: Input should be a finite number"),
+    (("units: mm", "units: mm\ndisplacement: {vertex_rule: {group: g}, textures: [{name: t, offset: [0, 0, 1.0e+9]}]}"),
+     "textures 't'.offset[2]: Input should be less than or equal to 1000"),
+    (("units: mm", "units: mm\nmaterial: {roughness: [0.1, .nan]}"), "material.roughness[1]: Input should be a finite"),
+])
+def test_every_number_of_a_spec_is_finite_and_in_range(tmp_path, change, needle):
+    """NaN, infinity and absurd values anywhere in a spec, operation parameters included, are one short line."""
+    path = tmp_path / "spec.yaml"
+    path.write_text(SPEC.replace(*change))
+    with pytest.raises(UserError) as err:
+        load_spec(path)
+    assert needle in str(err.value) and "\n" not in str(err.value) and len(str(err.value)) < 300, str(err.value)
+
+
+def test_a_nan_amount_fails_spec_check_in_one_line(tmp_path):
+    path = tmp_path / "spec.yaml"
+    path.write_text(SPEC.replace("amount: 0.3", "amount: .nan"))
+    proc = cli("spec", "check", str(path))
+    assert proc.returncode == 2 and "amount=nan must be a finite number" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
+
+
+@pytest.mark.parametrize("flag, value", [("--resolution", "100000"), ("--samples", "0")])
+def test_spec_preview_sizes_are_in_the_configs_range(tmp_path, flag, value):
+    from typer.testing import CliRunner
+
+    from deformsim.cli.app import app
+
+    res = CliRunner().invoke(app, ["spec", "preview", "--out", str(tmp_path / "p.png"), flag, value])
+    assert res.exit_code == 2 and f"error: {flag} {value}: invalid render.{flag[2:]}: Input should be" in res.output
+    assert not (tmp_path / "p.png").exists()

@@ -32,8 +32,18 @@ def _terminate(signum, frame) -> None:
     raise Terminated()
 
 
+LONGEST_WORD = 100  # characters of one path or value an error line shows (its start and end)
+LONGEST_LINE = 290
+
+
 def error(message: str) -> None:
-    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True, markup=True)
+    """Print ``error: MESSAGE`` (rich markup, escaped by the caller) on one line of at most :data:`LONGEST_LINE`
+    characters: a huge path or value in it is cut in the middle, the line at its end."""
+    words = [w if len(w) <= LONGEST_WORD else f"{w[:45]}...{w[-52:]}" for w in message.split()]
+    line = " ".join(words)
+    if len(line) > LONGEST_LINE:
+        line = line[: LONGEST_LINE - 3] + "..."
+    err_console.print(f"[bold red]error:[/] {line}", highlight=False, soft_wrap=True, markup=True)
 
 
 def fail_cleanly(fn):
@@ -110,15 +120,17 @@ def parse_sets(items: list[str]) -> dict:
     """``["train.epochs=5", ...]`` (``--set`` options) as dotted overrides; values are read as YAML scalars or lists."""
     import yaml
 
+    from deformsim.schema import load_yaml, shown
+
     out = {}
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
-            raise UserError(f"--set {item!r}: expected KEY=VALUE, e.g. train.epochs=5")
+            raise UserError(f"--set {shown(repr(item))}: expected KEY=VALUE, e.g. train.epochs=5")
         try:
-            out[key.strip()] = yaml.safe_load(value)
+            out[key.strip()] = load_yaml(value)
         except yaml.YAMLError:
-            raise UserError(f"--set {item!r}: the value is not valid YAML") from None
+            raise UserError(f"--set {shown(repr(item))}: the value is not valid YAML") from None
     return out
 
 

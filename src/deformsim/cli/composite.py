@@ -34,10 +34,10 @@ def register(app: typer.Typer) -> None:
         """Composite every image onto photo or procedural backgrounds (chroma key or exact alpha)."""
         import warnings
 
-        import pandas as pd
-
         from deformsim.composite.backgrounds import BackgroundWarning
         from deformsim.dataset.layout import Layout
+        from deformsim.dataset.manifest import read_parquet
+        from deformsim.dataset.variants import VARIANT_MANIFEST
 
         own = Layout(out).config
         engine = ConfigArgs(config or (str(own) if own.is_file() else None), {
@@ -50,7 +50,7 @@ def register(app: typer.Typer) -> None:
                 f"[yellow]warning:[/] {message}", highlight=False, soft_wrap=True
             )
             variant = engine.composite(out, name, seed)
-        df = pd.read_parquet(variant / "manifest.parquet")
+        df = read_parquet(variant / VARIANT_MANIFEST, "variant manifest")
         iou = df["matte_iou"].dropna()
         quality = f"; matte IoU vs exact alpha: mean {iou.mean():.4f}, min {iou.min():.4f}" if len(iou) else ""
         scenes = int((df["background"] == "surface").sum()) if "background" in df.columns else 0

@@ -20,13 +20,16 @@ def register(app: typer.Typer) -> None:
         variant: Optional[str] = typer.Option(
             None, "--variant", help="black, green or a composited variant (default: the first composited one, else black)"
         ),
-        overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier export in OUT"),
+        overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier export in OUT (nothing else)"),
+        copy: bool = typer.Option(False, "--copy", help="copy the files instead of hard-linking the dataset's own "
+                                  "(an export independent of the dataset)"),
         progress: bool = typer.Option(True, "--progress/--no-progress"),
     ) -> None:
         """Export a variant's images (and masks) for torchvision/Hugging Face, COCO tools or anomalib."""
-        result = plain_engine(progress).export_data(data, out, fmt, variant, overwrite=overwrite)
+        result = plain_engine(progress).export_data(data, out, fmt, variant, overwrite=overwrite, copy=copy)
         s = result.summary
         copied = s["images"] - s["linked"]
-        how = f"{s['linked']} hard-linked" + (f", {copied} copied" if copied else "")
+        how = ", ".join(part for part in (f"{s['linked']} hard-linked" if s["linked"] else "",
+                                          f"{copied} copied" if copied else "") if part)
         console.print(f"[bold]{s['images']}[/] images of variant {result.variant} exported as {fmt} to {result.out} "
                       f"({how}); see {result.out / 'README.txt'}", highlight=False)

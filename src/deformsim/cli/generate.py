@@ -27,20 +27,24 @@ def generate(
     overwrite: bool = typer.Option(
         False, "--overwrite", help="replace a dataset in --out made with other settings, inputs or more images"
     ),
+    yes: bool = typer.Option(
+        False, "--yes", help="start a plan of more than 100000 images (without it: the estimated time and disk, and a stop)"
+    ),
     progress: bool = typer.Option(True, "--progress/--no-progress"),
 ) -> None:
     """Render a balanced, labelled intact/deformed dataset with Blender.
 
     Rerunning on the same folder resumes, or extends it with a larger --n. A folder rendered with other
     settings, another mesh or spec content, or more images than --n is refused unless --overwrite is given,
-    which removes it as a whole and renders anew."""
+    which removes it as a whole and renders anew. More than 100000 images print their estimated time and
+    disk and stop unless --yes is given."""
     result = ConfigArgs(config, {
         "--n": ("generate.n", n), "--resolution": ("render.resolution", resolution),
         "--samples": ("render.samples", samples), "--seed": ("generate.seed", seed),
         "--workers": ("generate.workers", workers), "--device": ("render.device", device),
         "--object": ("object.mesh", object_), "--spec": ("object.spec", spec), "--backend": ("generate.backend", backend),
         "--address": ("generate.address", address), "--gather": ("generate.gather", gather),
-    }).engine(progress).generate(out, overwrite=overwrite)
+    }).engine(progress).generate(out, overwrite=overwrite, yes=yes)
     console.print(
         f"[bold]{result.images}[/] images in {out} ({result.rendered} samples rendered now, "
         f"{result.seconds:.0f} s{', ' + result.device if result.device else ''}); "

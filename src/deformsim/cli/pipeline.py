@@ -28,6 +28,9 @@ def register(app: typer.Typer) -> None:
         overwrite: bool = typer.Option(
             False, "--overwrite", help="render the dataset anew when it holds more images than --n (else refused)"
         ),
+        yes: bool = typer.Option(
+            False, "--yes", help="start a plan of more than 100000 images (without it: the estimated time and disk, and a stop)"
+        ),
         progress: bool = typer.Option(True, "--progress/--no-progress"),
     ) -> None:
         """Generate, composite, train, evaluate and report; stages already up to date are skipped.
@@ -38,7 +41,7 @@ def register(app: typer.Typer) -> None:
             "--resolution": ("render.resolution", resolution), "--samples": ("render.samples", samples),
             "--epochs": ("train.epochs", epochs), "--seed": ("generate.seed", seed),
             "--backgrounds": ("composite.backgrounds", backgrounds),
-        }).engine(progress, note(console)).run(out, real, overwrite=overwrite)
+        }).engine(progress, note(console)).run(out, real, overwrite=overwrite, yes=yes)
         for name, secs in result.seconds.items():
             console.print(f"  {name:<24} {secs:7.1f} s")
         if result.skipped:

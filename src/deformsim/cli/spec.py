@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import console, err_console, fail_cleanly, plain_engine
+from deformsim.cli.common import ConfigArgs, console, err_console, fail_cleanly, plain_engine
 
 
 def register(app: typer.Typer) -> None:
@@ -42,4 +42,6 @@ def register(app: typer.Typer) -> None:
         samples: int = typer.Option(16, help="Cycles samples per pixel"),
     ) -> None:
         """Render the rest shape and each key at full weight into one labelled image."""
-        console.print(f"spec preview: {plain_engine().spec_preview(file, object_, out, resolution, samples)}")
+        sizes = ConfigArgs(flags={"--resolution": ("render.resolution", resolution),
+                                  "--samples": ("render.samples", samples)})  # within the config's ranges
+        console.print(f"spec preview: {sizes.engine().spec_preview(file, object_, out, resolution, samples)}")

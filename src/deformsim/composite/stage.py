@@ -4,8 +4,9 @@ A variant is ``OUT/variants/NAME/`` with ``images/ID.png``, ``manifest.parquet``
 went into each composite) and ``composite.json`` (the settings); for a dataset with dense maps also
 ``{mask,deform,region}/ID.png``, moved exactly like the part (:mod:`deformsim.composite.maps`). Each image
 draws from its own streams (:mod:`deformsim.sampling.streams`, keyed by the image id), so the result does not depend
-on the number of workers. The variant is built in a staging folder and swapped in only when complete. Optional
-steps, each recorded per image: a class-balanced choice of background photo, framing around the object
+on the number of workers. The variant is built in a staging folder and swapped in only when complete; workers end
+with the run, and the next run removes the staging folder of one that was killed. Optional steps, each recorded
+per image: a class-balanced choice of background photo, framing around the object
 (:mod:`deformsim.composite.framing`), a left-right flip of the part (``flip_part``, from a stream of its own)
 and camera effects (:mod:`deformsim.composite.effects`). With ``composite.surface`` a share of the images (drawn
 per image from a stream of its own) shows the dataset's rendered surface scene (``render.surface``) instead:
@@ -22,7 +23,6 @@ import os
 import re
 import shutil
 import tempfile
-import uuid
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
@@ -49,11 +49,13 @@ from deformsim.dataset.manifest import read_manifest
 from deformsim.dataset.variants import VARIANT_MANIFEST
 from deformsim.errors import UserError
 from deformsim.log import progress_bar
-from deformsim.parallel import worker_count
+from deformsim.parallel import die_with_parent, owner_gone, owner_tag, worker_count
 from deformsim.sampling.streams import stable_int, stream
+from deformsim.schema import MAX_SEED, shown
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 _STATE: dict = {}
+STAGING = ".staging-"  # variants/.staging-HOST-PID-START-XXXX/: a run's new variant, then the old one it replaced
 
 
 SETTINGS_FILE = "composite.json"
@@ -74,6 +76,8 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
     Inputs are checked before any work (:class:`UserError`); an existing variant of the same name is
     replaced only when the new one is complete.
     """
+    if not (isinstance(seed, int) and 0 <= seed <= MAX_SEED):
+        raise UserError(f"--seed {shown(seed)}: a seed is a whole number from 0 to {MAX_SEED}")
     layout = Layout(Path(root))
     manifest = read_manifest(layout.root)
     name = name or default_name(cfg)
@@ -86,11 +90,13 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
         first = balanced_photos(manifest["id"].tolist(), manifest["y"].tolist(), len(photos), seed)
         jobs = [(*job, first[job[0]]) for job in jobs]
 
-    staging = layout.root / "variants" / ".staging"
-    staging.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f"{name}-", dir=staging))
+    variants = layout.root / "variants"
+    sweep_staging(variants)
+    variants.mkdir(exist_ok=True)
+    run = Path(tempfile.mkdtemp(prefix=f"{STAGING}{owner_tag()}-", dir=variants))
+    tmp = run / name
     try:
-        (tmp / "images").mkdir()
+        (tmp / "images").mkdir(parents=True)
         state = {"cfg": cfg.model_dump(), "seed": seed, "photos": photos, "out": str(tmp / "images"),
                  "prefix": f"variants/{name}/images", "maps_out": str(tmp), "maps_prefix": f"variants/{name}"}
         rows, bad = _run(jobs, state, worker_count(len(jobs), cfg.workers, most=8, jobs_each=16), progress)
@@ -104,10 +110,23 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
         df = pd.DataFrame(rows).sort_values("id").reset_index(drop=True)
         df.to_parquet(tmp / VARIANT_MANIFEST, index=False)
         write_json(tmp / SETTINGS_FILE, variant_settings(name, seed, cfg))
-        final = _swap(tmp, layout.variant_dir(name), staging)
+        final = _swap(tmp, layout.variant_dir(name), run)
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        shutil.rmtree(run, ignore_errors=True)
     return final
+
+
+def sweep_staging(variants: Path) -> None:
+    """Remove the staging folders under ``variants`` of composite runs that ended without cleaning up (killed); a
+    variant that such a run had moved aside but not yet replaced is put back."""
+    for folder in variants.glob(f"{STAGING}*"):
+        tag = folder.name[len(STAGING):].rpartition("-")[0]  # the part before mkdtemp's random suffix
+        if not (folder.is_dir() and owner_gone(tag)):
+            continue
+        new = [p for p in folder.iterdir() if p.name != ".old"]
+        if (folder / ".old").is_dir() and len(new) == 1 and not (variants / new[0].name).exists():
+            os.replace(folder / ".old", variants / new[0].name)
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def balanced_photos(ids: list[str], labels: list[int], n_photos: int, seed: int) -> dict[str, int]:
@@ -129,6 +148,10 @@ def _jobs(layout: Layout, manifest: pd.DataFrame, source: str, shadows: bool = F
     ``surfaces``: the dataset must have surface scenes (``render.surface``)."""
     if manifest.empty:
         raise UserError(f"dataset {layout.root} has no images")
+    missing = {"id", "y", source} - set(manifest.columns)
+    if missing:
+        raise UserError(f"manifest of {layout.root} lacks column(s) {', '.join(sorted(missing))}: composite needs "
+                        f"its {source} renders")
     if surfaces and SURFACE_KIND not in manifest.columns:
         raise UserError(f"composite.surface needs surface scenes, and dataset {layout.root} was rendered without "
                         "render.surface: render it with render.surface, or set composite.surface to 0")
@@ -166,7 +189,7 @@ def _run(jobs: list, state: dict, workers: int, progress: bool) -> tuple[list[di
             results = (_chunk(c) for c in chunks)
             pool = None
         else:
-            pool = ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(state,))
+            pool = ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(state, os.getpid()))
             results = (f.result() for f in as_completed([pool.submit(_chunk, c) for c in chunks]))
         try:
             for chunk_rows, chunk_bad in results:
@@ -184,7 +207,8 @@ def _init(state: dict) -> None:
     _STATE.update(state, cfg=CompositeConfig.model_validate(state["cfg"]), bad={})
 
 
-def _init_worker(state: dict) -> None:
+def _init_worker(state: dict, parent: int) -> None:
+    die_with_parent(parent)
     _init(state)
     cv2.setNumThreads(1)  # the pool is the parallelism
 
@@ -195,10 +219,16 @@ def _chunk(jobs: list) -> tuple[list[dict], dict[str, str]]:
 
 
 def _read(path: str, flags: int) -> np.ndarray:
-    img = cv2.imread(path, flags)
-    if img is None:
-        raise UserError(f"cannot read image {path}")
-    return cv2.cvtColor(img, cv2.COLOR_BGRA2RGBA if img.shape[2] == 4 else cv2.COLOR_BGR2RGB)
+    """An 8-bit RGB image (``cv2.IMREAD_COLOR``) or the render's 8-bit RGBA (``cv2.IMREAD_UNCHANGED``)."""
+    try:
+        img = cv2.imread(path, flags)
+    except cv2.error:  # larger than OpenCV reads
+        img = None
+    channels = 4 if flags == cv2.IMREAD_UNCHANGED else 3
+    if img is None or img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] != channels:
+        what = "an 8-bit RGBA render" if channels == 4 else "an 8-bit image"
+        raise UserError(f"cannot read image {path} as {what}")
+    return cv2.cvtColor(img, cv2.COLOR_BGRA2RGBA if channels == 4 else cv2.COLOR_BGR2RGB)
 
 
 def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | None = None,
@@ -293,7 +323,7 @@ def shadow_strength(seed: int, iid: str, r: tuple[float, float]) -> float:
 
 
 def read_shadow(path: str, shape: tuple[int, int]) -> np.ndarray:
-    """A shadow map (8-bit opacity, :mod:`deformsim.blender.shadow`) as float32 in 0..1, checked to be ``shape``."""
+    """A shadow map (8-bit opacity, :mod:`deformsim.blender.scene.shadow`) as float32 in 0..1, checked to be ``shape``."""
     img = cv2.imread(path, cv2.IMREAD_UNCHANGED)
     if img is None or img.ndim != 2:
         raise UserError(f"cannot read shadow map {path} (a single-channel PNG is expected)")
@@ -324,11 +354,9 @@ def _background(rng: np.random.Generator, cfg: CompositeConfig, h: int, w: int,
     raise UserError("no background photo could be decoded: " + ", ".join(sorted(_STATE["bad"])))
 
 
-def _swap(tmp: Path, final: Path, staging: Path) -> Path:
-    """Move the finished ``tmp`` folder onto ``final``; the old variant is removed only afterwards."""
-    old = staging / f"{final.name}.old-{uuid.uuid4().hex[:8]}"
+def _swap(tmp: Path, final: Path, run: Path) -> Path:
+    """Move the finished ``tmp`` folder onto ``final``; the old variant goes into ``run`` and is removed afterwards."""
     if final.exists():
-        os.replace(final, old)
+        os.replace(final, run / ".old")  # no variant name starts with a dot
     os.replace(tmp, final)
-    shutil.rmtree(old, ignore_errors=True)
     return final

@@ -128,10 +128,23 @@ def read_manifest(root: str | Path) -> pd.DataFrame:
     layout = Layout(Path(root))
     if not layout.manifest.is_file():
         raise UserError(f"{root} is not a generated dataset: {layout.manifest.name} is missing (run deformsim generate)")
+    fix = "rerun deformsim generate on the dataset to write it again"
+    df = read_parquet(layout.manifest, "manifest", fix)
+    if "y" in df.columns and not df["y"].isin([0, 1]).all():
+        raise UserError(f"manifest {layout.manifest} has labels y other than 0 (intact) and 1 (deformed): {fix}")
+    return df
+
+
+def read_parquet(path: Path, what: str, fix: str = "") -> pd.DataFrame:
+    """The table in ``path``, read on this thread (pyarrow's thread pool can abort the interpreter at exit);
+    a corrupt or foreign file is a :class:`UserError` naming it as ``what``, followed by ``fix``."""
+    import pyarrow.parquet as pq
+
     try:
-        return pd.read_parquet(layout.manifest)
+        return pq.read_table(path, use_threads=False).to_pandas(use_threads=False)
     except Exception as exc:  # pyarrow raises several types for corrupt files
-        raise UserError(f"manifest {layout.manifest} is unreadable: {exc}") from None
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else "corrupt, cut short or not parquet"
+        raise UserError(f"{what} {path} is unreadable ({reason})" + (f": {fix}" if fix else "")) from None
 
 
 def stable_view(df: pd.DataFrame) -> pd.DataFrame:

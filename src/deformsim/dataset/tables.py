@@ -14,27 +14,37 @@ from deformsim.errors import UserError
 
 
 def load_table(data: Path, variant: str | None, default_variant: str) -> pd.DataFrame:
-    """A generated dataset's variant table, or a folder of photos in intact/ and deformed/ subfolders."""
+    """A generated dataset's variant table, or a folder of photos in intact/ and deformed/ subfolders, checked by
+    :func:`check_table`."""
     if Layout(data).manifest.is_file():
-        return variant_table(data, variant or default_variant)
-    if variant:
+        name = variant or default_variant
+        table, source = variant_table(data, name), f"variant '{name}' of {data}"
+    elif variant:
         raise UserError(f"--variant {variant} needs a generated dataset, but {data} has no manifest.parquet")
-    return real_table(data)
+    else:
+        table, source = real_table(data), str(data)
+    check_table(table, source)
+    return table
 
 
-def check_table(table: pd.DataFrame) -> None:
-    """A :class:`UserError` unless the table has rows, columns ``id, path, y``, 0/1 labels and every image."""
+def check_table(table: pd.DataFrame, source: str = "the image table") -> None:
+    """A :class:`UserError` naming ``source`` unless the table has rows, columns ``id, path, y``, 0/1 labels of
+    both classes and every image."""
     missing = {"id", "path", "y"} - set(table.columns)
     if missing:
-        raise UserError(f"image table lacks column(s) {', '.join(sorted(missing))}")
+        raise UserError(f"{source} lacks column(s) {', '.join(sorted(missing))}")
     if table.empty:
-        raise UserError("image table is empty: nothing to train on")
+        raise UserError(f"{source} is empty: nothing to train on")
     bad = set(table["y"].unique()) - {0, 1}
     if bad:
-        raise UserError(f"labels y must be 0 (intact) or 1 (deformed), got {sorted(bad)}")
+        raise UserError(f"{source}: labels y must be 0 (intact) or 1 (deformed), got {', '.join(sorted(map(str, bad))[:5])}")
+    deformed = int((table["y"] == 1).sum())
+    if deformed in (0, len(table)):
+        raise UserError(f"{source} has {len(table) - deformed} intact and {deformed} deformed images: training needs "
+                        "both classes (generate more images, e.g. a larger --n)")
     gone = [p for p in table["path"] if not Path(p).is_file()]
     if gone:
-        raise UserError(f"{len(gone)} image(s) missing, e.g. {gone[0]}")
+        raise UserError(f"{source}: {len(gone)} image(s) missing, e.g. {gone[0]}")
 
 
 def split(table: pd.DataFrame, fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:

@@ -174,10 +174,19 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
 
 
 def _composite_once(folder: Path, comp, name: str, seed: int, progress: bool) -> None:
-    """Composite the variant unless it exists with the same settings (its images keep their cached features)."""
+    """Composite the variant unless it exists with the same settings and holds every image of the dataset (then its
+    images keep their cached features); one made before the dataset grew is made again."""
     from deformsim.composite.stage import SETTINGS_FILE, composite, variant_settings
+    from deformsim.dataset.variants import is_current
 
     stamp = folder / "variants" / name / SETTINGS_FILE
-    if stamp.is_file() and json.loads(stamp.read_text()) == variant_settings(name, seed, comp):
+    if _read_stamp(stamp) == variant_settings(name, seed, comp) and is_current(folder, name):
         return
     composite(folder, comp, name, seed, progress=progress)
+
+
+def _read_stamp(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):  # missing, or cut short by a kill: composited again
+        return None

@@ -45,8 +45,8 @@ def _scenes(rows: pd.DataFrame) -> int:
     return int(rows["sample"].nunique()) if "sample" in rows.columns else len(rows)
 
 
-def write_anomalib(table: pd.DataFrame, out: Path, final: Path, bar, seed: int = 0) -> dict:
-    """Fill ``out`` (to become ``final``); the summary for export.json and the README's text."""
+def write_anomalib(table: pd.DataFrame, out: Path, final: Path, bar, copy: bool = False, seed: int = 0) -> dict:
+    """Fill ``out`` (to become ``final``; hard links unless ``copy``); the summary for export.json and the README's text."""
     masks = bool((table["mask_src"] == "dense").all())
     intact = table[table["y"] == 0].reset_index(drop=True)
     train_rows, _ = split(intact, 1 - TEST_FRACTION, seed) if len(intact) else ([], [])
@@ -55,12 +55,12 @@ def write_anomalib(table: pd.DataFrame, out: Path, final: Path, bar, seed: int =
     for row in table.itertuples(index=False):
         name = f"{row.id}{Path(row.path).suffix}"
         if row.y == 1:
-            linked += place(row.path, out / "test" / "deformed" / name)
+            linked += place(row.path, out / "test" / "deformed" / name, copy)
             if masks:
-                place(row.region_path, out / "ground_truth" / "deformed" / name)
+                place(row.region_path, out / "ground_truth" / "deformed" / name, copy)
                 empty_masks += int(getattr(row, "region_fraction", 1.0) == 0)
         else:
-            linked += place(row.path, out / ("test" if row.id in held_out else "train") / "good" / name)
+            linked += place(row.path, out / ("test" if row.id in held_out else "train") / "good" / name, copy)
         bar.update(1)
     args = folder_args(final, masks)
     write_text(out / "folder.yaml", yaml.safe_dump({"class_path": "anomalib.data.Folder", "init_args": args},

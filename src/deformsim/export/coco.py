@@ -49,8 +49,9 @@ def require_masks(table: pd.DataFrame) -> None:
                         "no dense maps that follow them: export variant black or green, or render with render.dense: true")
 
 
-def write_coco(table: pd.DataFrame, out: Path, final: Path, bar) -> dict:
-    """Fill ``out`` (to become ``final``; masks checked by :func:`require_masks`); the summary and the README's text."""
+def write_coco(table: pd.DataFrame, out: Path, final: Path, bar, copy: bool = False) -> dict:
+    """Fill ``out`` (to become ``final``; hard links unless ``copy``; masks checked by :func:`require_masks`); the
+    summary and the README's text."""
     cat = {c["name"]: c["id"] for c in CATEGORIES}
     images, annotations, linked = [], [], 0
     for n, row in enumerate(table.itertuples(index=False), start=1):
@@ -59,7 +60,7 @@ def write_coco(table: pd.DataFrame, out: Path, final: Path, bar) -> dict:
         w, h = image_size(row.path)
         if mask.shape != (h, w):
             raise UserError(f"mask {row.mask_path} is {mask.shape[1]}x{mask.shape[0]}, its image {row.path} {w}x{h}")
-        linked += place(row.path, out / file)
+        linked += place(row.path, out / file, copy)
         image = {"id": n, "file_name": file, "width": w, "height": h, "deformsim_id": row.id}
         images.append(image | ({"sample": int(row.sample)} if "sample" in table.columns else {}))
         box = mask_bbox(mask)

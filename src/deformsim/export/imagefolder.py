@@ -23,12 +23,12 @@ Views of one rendered part share the 'sample' number: split by it to keep them o
 """
 
 
-def write_imagefolder(table: pd.DataFrame, out: Path, final: Path, bar) -> dict:
-    """Fill ``out`` (to become ``final``); the summary for export.json and the README's text."""
+def write_imagefolder(table: pd.DataFrame, out: Path, final: Path, bar, copy: bool = False) -> dict:
+    """Fill ``out`` (to become ``final``; hard links unless ``copy``); the summary for export.json and the README's text."""
     rows, linked = [], 0
     for row in table.itertuples(index=False):
         file = f"{row.label}/{row.id}{Path(row.path).suffix}"
-        linked += place(row.path, out / file)
+        linked += place(row.path, out / file, copy)
         rows.append({"id": row.id, "file": file, "label": row.label, "y": int(row.y),
                      **{c: getattr(row, c) for c in ("sample", *SEVERITY) if c in table.columns}})
         bar.update(1)

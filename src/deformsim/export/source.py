@@ -15,10 +15,13 @@ from PIL import Image
 
 from deformsim.dataset.dense import read_mask
 from deformsim.dataset.layout import RENDER_KINDS, Layout
+from deformsim.dataset.paths import check_image, dataset_files
 from deformsim.dataset.variants import has_own_maps, list_variants, variant_table
 from deformsim.errors import UserError
+from deformsim.schema import shown
 
 SEVERITY = ("max_disp_mm", "visible_disp_mm", "region_fraction")
+FILES = {"path": "image", "mask_path": "mask", "region_path": "region map"}  # the file columns an export reads
 
 
 def default_variant(root: Path) -> str:
@@ -36,27 +39,42 @@ def _keeps_geometry(table: pd.DataFrame, variant: str) -> bool:
 
 
 def export_table(root: Path, variant: str) -> pd.DataFrame:
-    """Columns ``id, label, y, path`` (absolute), ``mask_src`` (``dense``, ``alpha`` or ``none``), and when masks
-    fit: ``mask_path`` (a 0/255 map, or the RGBA render whose alpha is the mask) and ``region_path`` (dense only).
+    """Columns ``id, label, y, path``, ``mask_src`` (``dense``, ``alpha`` or ``none``), and when masks fit:
+    ``mask_path`` (a 0/255 map, or the RGBA render whose alpha is the mask) and ``region_path`` (dense only); the
+    paths resolved, each checked to be an image inside the dataset.
 
-    A :class:`UserError` for an unknown variant or a missing image, before anything is written.
+    A :class:`UserError` for an unknown variant, a missing image, a file outside the dataset or one that does not
+    open as an image, before anything is written.
     """
-    layout = Layout(root)
-    table = variant_table(root, variant)
+    layout = Layout(Path(root).absolute())  # the table's paths absolute too
+    table = variant_table(layout.root, variant)
     if table.empty:
         raise UserError(f"variant '{variant}' of {root} has no images")
-    gone = [p for p in table["path"] if not Path(p).is_file()]
-    if gone:
-        raise UserError(f"{len(gone)} image(s) of variant '{variant}' missing, e.g. {gone[0]}")
     if "mask" in table.columns and (has_own_maps(root, variant) or _keeps_geometry(table, variant)):
         table["mask_src"] = "dense"
         table["mask_path"], table["region_path"] = table["mask"], table["region"]
     elif "rgba" in table.columns and _keeps_geometry(table, variant):
         table["mask_src"] = "alpha"
-        table["mask_path"] = [str(layout.root / p) for p in table["rgba"]]
+        table["mask_path"] = table["rgba"]
     else:
         table["mask_src"] = "none"
-    return table.sort_values("id").reset_index(drop=True)
+    table = table.sort_values("id").reset_index(drop=True)
+    _check_files(table, layout.root, variant)
+    return table
+
+
+def _check_files(table: pd.DataFrame, root: Path, variant: str) -> None:
+    """Resolve every file column of ``table`` in place: inside ``root``, there, and an image that opens."""
+    columns = [c for c in FILES if c in table.columns]
+    for col in columns:
+        rows = (f"variant '{variant}' row {shown(i, 40)}, {FILES[col]}" for i in table["id"])
+        table[col] = dataset_files(root, table[col], rows)
+    gone = [p for col in columns for p in table[col] if not Path(p).exists()]
+    if gone:
+        raise UserError(f"{len(gone)} file(s) of variant '{variant}' missing, e.g. {shown(gone[0], 200)}")
+    for col in columns:
+        for i, p in zip(table["id"], table[col]):
+            check_image(p, f"variant '{variant}' row {shown(i, 40)}, {FILES[col]}")
 
 
 def part_mask(row) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""Why a run cannot start: a spec that does not fit the part, or an output folder that holds another dataset.
+"""Why a run cannot start: a spec that does not fit the part, a mesh that is no solid part, a plan too large to
+start unasked, or an output folder that holds another dataset.
 
 A folder rendered with other settings or inputs, or holding more samples than ``generate.n`` asks for, is
 refused with one line (``--overwrite`` replaces it as a whole), so a dataset is never a mix of two parts, two
@@ -7,18 +8,21 @@ specs or two sizes; a folder that holds files but no dataset is never used.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
-import yaml
-
-from deformsim.config import Config
+from deformsim.config import CONFIRM_IMAGES, Config
 from deformsim.dataset.layout import Layout
 from deformsim.errors import UserError
 from deformsim.generate.identity import data_settings, input_digests
-from deformsim.outputs import read_inputs
+from deformsim.outputs import check_kind, read_inputs
+from deformsim.schema import read_mapping, shown
+from deformsim.spec.mesh_numbers import nonfinite_vertices
 from deformsim.spec.model import Spec, check_mesh_file
 
 _REPLACE = "use a new output folder, or --overwrite to replace it"
+PART_SIZE = (1e-6, 1e5)  # metres: the largest dimension of a part that can be rendered
+FLAT = 1e-6  # a part whose smallest dimension is below this share of its largest is flat
 
 
 def n_samples(cfg: Config) -> int:
@@ -27,13 +31,49 @@ def n_samples(cfg: Config) -> int:
 
 
 def check_part(spec: Spec, mesh: Path | None) -> None:
-    """A spec for the built-in part takes no mesh; any other needs one, of a supported format."""
+    """A spec for the built-in part takes no mesh; any other needs one, of a supported format, whose vertex
+    coordinates are finite (:func:`~deformsim.spec.mesh_numbers.nonfinite_vertices`)."""
     if mesh is not None:
         check_mesh_file(mesh)
+        if nonfinite_vertices(mesh):
+            raise UserError(f"mesh {mesh} has vertex coordinates that are NaN or infinite (Blender would drop them "
+                            "and the faces on them)")
         if spec.builtin:
-            raise UserError(f"spec '{spec.name}' is for the built-in {spec.builtin}, not for mesh {mesh}")
+            raise UserError(f"spec '{shown(spec.name, 40)}' is for the built-in {spec.builtin}, not for mesh {mesh}")
     elif not spec.builtin:
-        raise UserError(f"spec '{spec.name}' describes a mesh part: pass the mesh with --object")
+        raise UserError(f"spec '{shown(spec.name, 40)}' describes a mesh part: pass the mesh with --object")
+
+
+def check_probe(mesh: Path, probed: dict) -> list[float]:
+    """The size (metres) the mesh probe measured of ``mesh``, or one line when it is no solid part: not finite,
+    fewer than 4 vertices, flat, or outside :data:`PART_SIZE`."""
+    size = [float(v) for v in probed["size"]]
+    if not all(math.isfinite(v) for v in size):
+        raise UserError(f"mesh {mesh} has a size that is not finite ({size})")
+    vertices = probed["vertices"]
+    if vertices < 4:
+        raise UserError(f"mesh {mesh} has {vertices} vertices: a part needs a solid shape (4 or more)")
+    dims = " x ".join(f"{v:.3g}" for v in size)
+    if not PART_SIZE[0] <= max(size) <= PART_SIZE[1]:
+        raise UserError(f"mesh {mesh} is {dims} m: a part must measure {PART_SIZE[0]:g} to {PART_SIZE[1]:g} m "
+                        "(set units or size in the spec)")
+    if min(size) <= FLAT * max(size):
+        raise UserError(f"mesh {mesh} is flat ({dims} m): a part needs a solid shape")
+    return size
+
+
+def check_plan(cfg: Config, yes: bool) -> None:
+    """A plan of more than :data:`~deformsim.config.CONFIRM_IMAGES` images needs ``yes``: else one line with its
+    estimated render time and disk (from docs/benchmarks.md's 2-core machine)."""
+    n = cfg.generate.n
+    if n <= CONFIRM_IMAGES or yes:
+        return
+    r = cfg.render
+    pixels, scenes = r.resolution**2, int(r.shadow) + int(r.surface is not None)  # the extra renders per image
+    seconds = n * (1.5 + 2e-6 * pixels * r.samples) * (1 + scenes)
+    disk = n * pixels * (0.65 * (3 + scenes) + (1.5 if r.dense else 0))  # bytes of PNG per pixel of each kind
+    raise UserError(f"generate.n {n} is more than {CONFIRM_IMAGES} images: about {seconds / 3600:,.0f} hours of "
+                    f"rendering on a 2-core machine and {disk / 1e9:,.0f} GB of disk; pass --yes to start it")
 
 
 def existing_dataset(cfg: Config, out: Path, spec: Spec) -> str | None:
@@ -44,11 +84,10 @@ def existing_dataset(cfg: Config, out: Path, spec: Spec) -> str | None:
     out = Path(out)
     if not out.is_dir() or not any(out.iterdir()):
         return None
+    check_kind(out, "dataset")
     layout = Layout(out)
-    if not layout.config.is_file():
-        raise UserError(f"{out} holds files but no deformsim dataset: choose a new or empty output folder")
     try:
-        old_settings = data_settings(Config.model_validate(yaml.safe_load(layout.config.read_text())))
+        old_settings = data_settings(Config.model_validate(read_mapping(layout.config, "config")))
     except Exception:
         return f"holds an unreadable {layout.config.name}: {_REPLACE}"
     new = data_settings(cfg)

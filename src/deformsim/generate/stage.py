@@ -29,10 +29,10 @@ from deformsim.generate.backend import disk_full, remove_partial_files
 from deformsim.generate.identity import input_digests, texture_photos
 from deformsim.generate.local import run_local
 from deformsim.generate.probe import probe_mesh
-from deformsim.generate.refusals import check_part, existing_dataset, n_samples
+from deformsim.generate.refusals import check_part, check_probe, existing_dataset, n_samples
 from deformsim.hdri import list_hdris
 from deformsim.log import get_logger
-from deformsim.outputs import check_folder_target, remove_folder
+from deformsim.outputs import check_apart, check_folder_target, remove_folder, sweep
 from deformsim.sampling import allowed_families, sample_params
 from deformsim.spec.model import Spec, load_spec, units_hint
 from deformsim.version import __version__
@@ -60,7 +60,6 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
     """
     out = check_folder_target(out, "--out")
     spec = spec or load_spec(cfg.object.spec)
-    check_part(spec, cfg.object.mesh)
     allowed_families(cfg, spec)
     if cfg.deform.sources.uses_bank and spec.simulation is None:
         raise UserError(f"deform.sources uses the simulated bank, but spec '{spec.name}' declares no simulation "
@@ -76,12 +75,24 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
         raise UserError(f"{out} {conflict}")
     if conflict is not None:
         check_folder_target(out, "--out", replace=True)  # it is removed as a whole
-    if cfg.object.mesh is not None:
-        size = probe_mesh(cfg.object.mesh, cfg.object.spec)["size"]
-        hint = units_hint(size, spec)
-        if hint:
-            log.warning("mesh %s: %s", cfg.object.mesh, hint)
+        surface = cfg.render.surface
+        check_apart(out, "--out", {"mesh": cfg.object.mesh, "spec": cfg.object.spec, "HDRI folder": cfg.lighting.hdri_dir,
+                                   "surface photo folder": surface.photos if surface is not None else None})
+    _, hint = check_part_mesh(spec, cfg.object.mesh, cfg.object.spec)
+    if hint:
+        log.warning("mesh %s: %s", cfg.object.mesh, hint)
     return spec, hdris
+
+
+def check_part_mesh(spec: Spec, mesh: Path | None, spec_path: Path | None) -> tuple[list[float] | None, str | None]:
+    """The part checks of ``generate`` and ``spec check``: the spec fits the part (:func:`check_part`) and a mesh
+    imports in a throwaway Blender process as a solid part (:func:`check_probe`). Its size (metres) and a hint
+    when that suggests the wrong ``units``; (None, None) for the built-in part."""
+    check_part(spec, mesh)
+    if mesh is None:
+        return None, None
+    size = check_probe(mesh, probe_mesh(mesh, spec_path))
+    return size, units_hint(size, spec)
 
 
 def versions() -> dict:
@@ -106,6 +117,7 @@ def generate(cfg: Config, out: str | Path, progress: bool = True,
     t0 = time.perf_counter()
     out = Path(out)
     spec, hdris = prepared or prepare(cfg, out, overwrite)
+    sweep(out)
     if overwrite and existing_dataset(cfg, out, spec) is not None:
         log.info("--overwrite: removing the dataset in %s", out)
         remove_folder(out)

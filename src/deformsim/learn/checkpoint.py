@@ -9,14 +9,17 @@ from __future__ import annotations
 from pathlib import Path
 
 import torch
+from pydantic import ValidationError
 
 from deformsim.atomic import atomic_path
 from deformsim.config import TrainConfig
 from deformsim.dataset.images import CLASSES
-from deformsim.errors import UserError
+from deformsim.errors import ResourceError, UserError
 from deformsim.learn.models import DeformNet, build
+from deformsim.schema import clip, first_error, shown
 
 MODEL_FILE = "model.pt"
+MAX_OUTPUTS = 1024  # what a model of train.target family may predict: one output per deformation family
 
 
 def save(path: Path, model: DeformNet, cfg: TrainConfig, weights: str, history: list[dict], split: dict,
@@ -26,12 +29,25 @@ def save(path: Path, model: DeformNet, cfg: TrainConfig, weights: str, history: 
             "weights": weights, "classes": list(CLASSES), "history": history, "split": split}
     if outputs is not None:
         ckpt["outputs"] = list(outputs)
-    with atomic_path(path) as tmp:
-        torch.save(ckpt, tmp)
+    write(path, ckpt)
+
+
+def write(path: Path, obj) -> None:
+    """``torch.save`` to ``path`` atomically; a failed write (torch raises RuntimeError, not OSError, when the disk
+    fills) is a :class:`ResourceError` naming the file. The file is ours to close, so a failure frees its space."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        try:
+            torch.save(obj, f)
+        except RuntimeError as exc:  # "[enforce fail at inline_container.cc:672] . unexpected pos 576 vs 534"
+            reason = (str(exc).strip().splitlines() or [""])[0].rpartition("] ")[2].strip(" .")[:120] or "failed"
+            raise ResourceError(f"cannot write {path} (torch: {reason}): is the disk full? Free some disk space, "
+                                "then rerun the same command") from None
 
 
 def read_checkpoint(model_path: str | Path) -> tuple[dict, Path]:
-    """The saved dict of ``model.pt`` (or of a folder holding it) and its path."""
+    """The saved dict of ``model.pt`` (or of a folder holding it) and its path, checked as :func:`restore` will use
+    it: a valid training config, finite weights, and at most :data:`MAX_OUTPUTS` outputs; one line naming the file
+    otherwise."""
     path = Path(model_path)
     if path.is_dir():
         path = path / MODEL_FILE
@@ -40,18 +56,46 @@ def read_checkpoint(model_path: str | Path) -> tuple[dict, Path]:
     try:
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # torch raises several types for corrupt or foreign files
-        raise UserError(f"{path} is not a deformsim model: {exc}") from None
-    if not isinstance(ckpt, dict) or "state_dict" not in ckpt or "config" not in ckpt:
+        raise UserError(f"{path} is not a deformsim model: {clip(str(exc), 160)}") from None
+    if not isinstance(ckpt, dict) or not isinstance(ckpt.get("state_dict"), dict) or "config" not in ckpt:
         raise UserError(f"{path} is not a deformsim model (no state_dict/config)")
+    saved_config(ckpt, path)
+    outputs = ckpt.get("outputs")
+    if outputs is not None and not (isinstance(outputs, list) and 0 < len(outputs) <= MAX_OUTPUTS
+                                    and all(isinstance(o, str) for o in outputs)):
+        raise UserError(f"{path} is not a deformsim model: its outputs are not 1 to {MAX_OUTPUTS} names")
+    classes = ckpt.get("classes", list(CLASSES))
+    if not (isinstance(classes, list) and len(classes) == 2 and all(isinstance(c, str) for c in classes)):
+        raise UserError(f"{path} is not a deformsim model: its classes are not two names")
+    for name, tensor in ckpt["state_dict"].items():
+        if not isinstance(tensor, torch.Tensor):
+            raise UserError(f"{path} is not a deformsim model: state_dict entry {shown(name, 60)} is no tensor")
+        if tensor.is_floating_point() and not torch.isfinite(tensor).all():
+            raise UserError(f"{path} holds non-finite weights (NaN or infinity) in {shown(name, 60)}: train it again")
     return ckpt, path
 
 
-def restore(ckpt: dict) -> tuple[DeformNet, TrainConfig]:
-    """The saved model in eval mode and its training config."""
-    cfg = TrainConfig.model_validate(ckpt["config"])
+def saved_config(ckpt: dict, path: Path | str = "the model") -> TrainConfig:
+    """The training config saved in ``ckpt``, validated as a config file is (the same ranges), or one line naming
+    ``path`` and the bad value."""
+    data = ckpt.get("config")
+    if not isinstance(data, dict):
+        raise UserError(f"{path} is not a deformsim model: its config is no mapping")
+    try:
+        return TrainConfig.model_validate(data)
+    except ValidationError as exc:
+        loc, msg, value = first_error(exc, data)
+        where = ".".join(str(p) for p in loc)
+        raise UserError(f"{path}: its saved config is invalid: train.{where}: {msg} (got {shown(value)})") from None
+
+
+def restore(ckpt: dict, path: Path | str = "the model") -> tuple[DeformNet, TrainConfig]:
+    """The saved model (of a dict that :func:`read_checkpoint` checked) in eval mode and its training config;
+    ``path`` names the file in errors."""
+    cfg = saved_config(ckpt, path)
     model, _ = build(cfg, load_weights=False, outputs=len(ckpt.get("outputs") or [None]))
     try:
         model.load_state_dict(ckpt["state_dict"])
     except RuntimeError as exc:  # a state dict of another head or backbone than its config says
-        raise UserError(f"the model does not match its saved config: {str(exc).splitlines()[0]}") from None
+        raise UserError(f"{path} does not match its saved config: {clip(str(exc).splitlines()[0], 160)}") from None
     return model.eval(), cfg

@@ -6,7 +6,8 @@ the first trainable layer, in float32 so cached predictions equal uncached ones 
 The stem hash covers the frozen weights themselves; the image hash the image file's bytes (sha256) and the
 version of the image loader, so a rewritten image (even one copied over another with the same size and time),
 other weights or another decoding make new files, and identical images share one. Training, prediction and PCA
-features of every run read the same files.
+features of every run read the same files. An entry that is not a finite float32 tensor of the stem's shape is
+computed again and replaced.
 """
 
 from __future__ import annotations
@@ -17,16 +18,17 @@ from weakref import WeakKeyDictionary
 
 import torch
 
-from deformsim.atomic import atomic_path
 from deformsim.dataset.images import LOADER_VERSION
 from deformsim.errors import UserError
 from deformsim.identity import file_digest
+from deformsim.learn import checkpoint
 from deformsim.learn.data import ImageSet
 from deformsim.learn.models import DeformNet
 from deformsim.log import progress_bar
 from deformsim.outputs import cache_dir
 
 _STEM_HASHES: WeakKeyDictionary = WeakKeyDictionary()  # model -> (weight versions, hash)
+_STEM_SHAPES: dict[tuple[str, int, int], tuple[int, ...]] = {}  # (backbone, cut, size) -> activation shape
 
 
 def stem_hash(model: DeformNet) -> str:
@@ -73,11 +75,26 @@ def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, pro
     return torch.cat(out)
 
 
-def _load(path: Path) -> torch.Tensor | None:
+def stem_shape(model: DeformNet, size: int) -> tuple[int, ...]:
+    """The shape (C, H, W) of one image's stem activations at ``size``."""
+    key = (model.backbone, model.cut, size)
+    if key not in _STEM_SHAPES:
+        was_training = model.training
+        model.eval()
+        with torch.inference_mode():
+            _STEM_SHAPES[key] = tuple(model.stem(torch.zeros(1, 3, size, size, device=model.mean.device)).shape[1:])
+        model.train(was_training)
+    return _STEM_SHAPES[key]
+
+
+def _load(path: Path, shape: tuple[int, ...]) -> torch.Tensor | None:
+    """The cached activations in ``path``, or None when there are none of ``shape`` (float32, finite) to trust."""
     try:
-        return torch.load(path, map_location="cpu", weights_only=True)
+        t = torch.load(path, map_location="cpu", weights_only=True)
     except Exception:  # not cached yet, or truncated or foreign (torch raises several types): recomputed
         return None
+    ok = isinstance(t, torch.Tensor) and tuple(t.shape) == shape and t.dtype == torch.float32
+    return t if ok and bool(torch.isfinite(t).all()) else None
 
 
 def cached_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, progress: bool = False) -> torch.Tensor:
@@ -86,14 +103,14 @@ def cached_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, 
         raise ValueError("cached_stem needs at least one image")
     root = cache_dir() / "features"
     files = [root / k for k in cache_key(model, paths, size)]
-    found = {f: _load(f) for f in dict.fromkeys(files)}
+    shape = stem_shape(model, size)
+    found = {f: _load(f, shape) for f in dict.fromkeys(files)}
     missing = [f for f, t in found.items() if t is None]
     if missing:
         path_of = dict(zip(files, map(str, paths)))
         feats = run_stem(model, [path_of[f] for f in missing], size, batch_size, progress)
         for f, t in zip(missing, feats):
             t = t.clone()  # a view would save the whole batch's storage
-            with atomic_path(f) as tmp:
-                torch.save(t, tmp)
+            checkpoint.write(f, t)
             found[f] = t
     return torch.stack([found[f] for f in files])

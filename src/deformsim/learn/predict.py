@@ -27,7 +27,7 @@ class Predictor:
     """
 
     def __init__(self, ckpt: dict, path: Path, progress: bool | None = None):
-        self.model, self.cfg = restore(ckpt)
+        self.model, self.cfg = restore(ckpt, path)
         self.device = pick_device(self.cfg.device)
         self.model.to(self.device)
         self.path = path

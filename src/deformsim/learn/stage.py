@@ -1,7 +1,7 @@
 """The training stage: a model trained on a dataset variant (or a photo folder) and put into its own folder.
 
-The folder is refused when it holds one trained with other settings or images (unless ``overwrite``); the new
-model is built beside it and swapped in whole.
+The folder is refused when it holds one trained with other settings or images (unless ``overwrite``), anything
+but a model, or the training data; the new model is built beside it and swapped in whole.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from pathlib import Path
 from deformsim.config import TrainConfig
 from deformsim.identity import digest, files_digest
 from deformsim.learn.train import TrainResult
-from deformsim.outputs import check_folder_target, claim, replacing
+from deformsim.outputs import check_apart, check_folder_target, claim, replacing
 
 
 @dataclass
@@ -32,16 +32,17 @@ def train_model(data: Path, cfg: TrainConfig, out: Path, variant: str | None = N
     """:func:`deformsim.learn.train.fit` on ``data`` into the folder ``out``.
 
     ``data`` is a generated dataset (its ``variant``, default the first of ``cfg.variants``) or a folder of
-    intact/ and deformed/ photos. Refused with one line when ``out`` is a file, holds files but no model, or
-    holds a model trained with other settings or images (unless ``overwrite``).
+    intact/ and deformed/ photos. Refused with one line when ``out`` is a file, holds anything but a model (even
+    with ``overwrite``), is or holds ``data`` or ``adapt``, or holds a model trained with other settings or images
+    (unless ``overwrite``).
     """
-    from deformsim.dataset.tables import check_table, load_table
+    from deformsim.dataset.tables import load_table
     from deformsim.learn.checkpoint import MODEL_FILE
     from deformsim.learn.train import fit
 
     out = check_folder_target(out, "--out")
+    check_apart(out, "--out", {"training data": data, "--adapt photos": adapt})
     table = load_table(data, variant, cfg.variants[0])
-    check_table(table)
     identity = {"settings": cfg.model_dump(mode="json"),
                 "inputs": {"variant": variant or cfg.variants[0], "images": images_digest(table, data)}}
     claim(out, "model", identity, overwrite)

@@ -1,7 +1,8 @@
 """The report stage: the paper's Table II on a dataset, put into its own folder as ``report.html``.
 
-The folder is refused when it holds a report made with other settings or inputs (unless ``overwrite``); the new
-report is built beside it and swapped in whole, so no model or plot of an older one is left.
+The folder is refused when it holds a report made with other settings or inputs (unless ``overwrite``), anything
+but a report, or the report's inputs; the new report is built beside it and swapped in whole, so no model or plot
+of an older one is left.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from pathlib import Path
 
 from deformsim.config import TrainConfig
 from deformsim.identity import files_digest
-from deformsim.outputs import check_folder_target, claim, replacing
+from deformsim.outputs import check_apart, check_folder_target, check_outside, claim, replacing
 
 
 def real_digest(real: Path | None) -> str | None:
@@ -25,8 +26,9 @@ def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = Non
     """Train and test every variant of dataset ``data`` with settings ``cfg`` (on ``real`` photos too) into the
     folder ``out``; the path of its report.html.
 
-    Refused with one line when ``out`` is a file, holds files but no report, or holds a report made with other
-    settings or inputs (unless ``overwrite``).
+    Refused with one line when ``out`` is a file, holds anything but a report (even with ``overwrite``), is or holds
+    ``data`` or ``real`` or lies inside ``real``, or holds a report made with other settings or inputs (unless
+    ``overwrite``).
     """
     from deformsim.dataset.layout import Layout
     from deformsim.dataset.manifest import read_manifest
@@ -35,6 +37,8 @@ def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = Non
     from deformsim.report.html import write_report
 
     out = check_folder_target(out, "--out")
+    check_apart(out, "--out", {"dataset": data, "real photos": real})
+    check_outside(out, "--out", {"real photos": real})  # its plots would be read as photos
     read_manifest(data)  # a clear error when ``data`` is not a dataset
     layout = Layout(data)
     manifests = [layout.manifest, *sorted((layout.root / "variants").glob(f"*/{VARIANT_MANIFEST}"))]

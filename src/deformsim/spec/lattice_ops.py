@@ -9,12 +9,20 @@ lattice shape key, so what a key does can be tested and previewed without render
 from __future__ import annotations
 
 import inspect
+import math
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
+from deformsim.schema import MAX_SEED, shown
+
 _AXES = {"x": 0, "y": 1, "z": 2}
+_CHOICES = {"axis": ("x", "y"), "anchor": ("bottom", "top", "center")}
+# every number a parameter takes: heights are fractions, sizes and amounts fractions of the lattice, angles degrees
+_BOUNDS = {"at": (0, 1), "amount": (0, 10), "width": (0, 10), "radius": (0, 10), "depth": (0, 10),
+           "bulge": (-10, 10), "expand": (-10, 10), "kink": (-10, 10), "inward": (-10, 10),
+           "angle": (-720, 720), "azimuth": (-720, 720), "seed": (0, MAX_SEED)}
 
 
 @dataclass(frozen=True)
@@ -30,18 +38,22 @@ class Op:
         """Raise ValueError on unknown parameters or out-of-range values."""
         unknown = set(params) - set(self.defaults)
         if unknown:
-            raise ValueError(f"unknown parameter(s) {sorted(unknown)} (allowed: {sorted(self.defaults)})")
+            raise ValueError(f"unknown parameter(s) {shown(sorted(map(str, unknown)))} (allowed: {sorted(self.defaults)})")
         merged = {**self.defaults, **params}
         for k, v in merged.items():
-            if k == "axis" and v not in ("x", "y"):
-                raise ValueError(f"axis must be 'x' or 'y', got {v!r}")
-            if k == "anchor" and v not in ("bottom", "top", "center"):
-                raise ValueError(f"anchor must be bottom, top or center, got {v!r}")
-            if k in ("at",) and not 0 <= float(v) <= 1:
-                raise ValueError(f"{k}={v} must be a height fraction in [0, 1]")
-            if k in ("amount", "width", "radius", "depth") and float(v) < 0:
-                raise ValueError(f"{k}={v} must not be negative")
-        if "amount" in merged and self.fn is compress and float(merged["amount"]) >= 1:
+            if k in _CHOICES and v not in _CHOICES[k]:
+                raise ValueError(f"{k} must be {' or '.join(_CHOICES[k])}, got {shown(v)}")
+            if k in _CHOICES:
+                continue
+            lo, hi = _BOUNDS[k]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or (k == "seed" and not isinstance(v, int)):
+                raise ValueError(f"{k}={shown(v)} must be {'an integer' if k == 'seed' else 'a number'}")
+            if isinstance(v, float) and not math.isfinite(v):
+                raise ValueError(f"{k}={v} must be a finite number")
+            if not lo <= v <= hi:
+                raise ValueError(f"{k}={shown(v)} " + ("must not be negative" if lo == 0 and v < 0 else
+                                                       f"must lie in [{lo}, {hi}]"))
+        if "amount" in merged and self.fn is compress and merged["amount"] >= 1:
             raise ValueError(f"amount={merged['amount']} must be < 1 for compress")
 
     def __call__(self, points: np.ndarray, **params) -> np.ndarray:

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from deformsim.errors import UserError
-from deformsim.schema import Range, StrictModel, check_range, read_mapping
+from deformsim.schema import Range, StrictModel, check_range, first_error, read_mapping, shown
 from deformsim.spec.lattice_ops import OPERATIONS
 from deformsim.spec.simulation import Simulation
 
@@ -23,6 +23,7 @@ BUILTIN_SPEC = Path(__file__).parent / "builtin" / "can.yaml"
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".gltf", ".fbx")
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
 PLAUSIBLE_SIZE = (0.005, 5.0)  # metres: a part's largest dimension outside this suggests a wrong ``units``
+Offset = Annotated[float, Field(ge=-1000, le=1000)]
 
 class Operation(StrictModel):
     """One lattice-point operation: ``op`` names a function of :data:`rig_ops.OPERATIONS`."""
@@ -33,7 +34,7 @@ class Operation(StrictModel):
     @model_validator(mode="after")
     def _known(self) -> "Operation":
         if self.op not in OPERATIONS:
-            raise ValueError(f"unknown operation '{self.op}' (known: {', '.join(sorted(OPERATIONS))})")
+            raise ValueError(f"unknown operation '{shown(self.op)}' (known: {', '.join(sorted(OPERATIONS))})")
         fn = OPERATIONS[self.op]
         try:
             fn.check(self.params)
@@ -104,11 +105,11 @@ class Texture(StrictModel):
     """A hard Stucci displacement texture, applied as its own shape key."""
 
     name: str
-    noise_scale: float = Field(0.01, gt=0, description="texture feature size, in object units (m)")
-    strength: float = Field(0.002, gt=0, description="displacement at full weight (m)")
-    turbulence: float = Field(5.0, ge=0)
+    noise_scale: float = Field(0.01, gt=0, le=100, description="texture feature size, in object units (m)")
+    strength: float = Field(0.002, gt=0, le=10, description="displacement at full weight (m)")
+    turbulence: float = Field(5.0, ge=0, le=1000)
     stucci_type: Literal["PLASTIC", "WALL_IN", "WALL_OUT"] = "WALL_OUT"
-    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    offset: tuple[Offset, Offset, Offset] = (0.0, 0.0, 0.0)
 
 
 class Displacement(StrictModel):
@@ -168,7 +169,7 @@ class Spec(StrictModel):
     name: str
     builtin: Literal["can"] | None = Field(None, description="built-in object instead of a mesh file")
     units: str = Field("m", description="length unit of the mesh file")
-    size: float | None = Field(None, gt=0, description="rescale so the largest dimension is this many metres")
+    size: float | None = Field(None, gt=0, le=1000, description="rescale so the largest dimension is this many metres")
     up_axis: Literal["Z", "Y"] = "Z"
     lattice: Lattice = Lattice()
     families: list[Family]
@@ -181,7 +182,7 @@ class Spec(StrictModel):
     @classmethod
     def _units(cls, v: str) -> str:
         if v not in UNITS:
-            raise ValueError(f"unknown unit '{v}' (known: {', '.join(UNITS)})")
+            raise ValueError(f"unknown unit '{shown(v)}' (known: {', '.join(UNITS)})")
         return v
 
     @model_validator(mode="after")
@@ -227,10 +228,8 @@ def load_spec(path: str | Path | None = None) -> Spec:
     try:
         return Spec.model_validate(data)
     except ValidationError as exc:
-        err = exc.errors()[0]
-        where = _where(data, err["loc"])
-        msg = err["msg"].removeprefix("Value error, ")
-        raise UserError(f"spec {path}: {where}: {msg}") from None
+        loc, msg, _ = first_error(exc, data)
+        raise UserError(f"spec {path}: {_where(data, loc)}: {msg}") from None
 
 
 def _where(data: dict, loc: tuple) -> str:
@@ -239,11 +238,11 @@ def _where(data: dict, loc: tuple) -> str:
     for p in loc:
         node = node[p] if isinstance(node, (dict, list)) and _has(node, p) else None
         if isinstance(p, int) and isinstance(node, dict) and "name" in node:
-            parts[-1] = f"{parts[-1]} '{node['name']}'"
+            parts[-1] = f"{parts[-1]} '{shown(node['name'], 40)}'"
         elif isinstance(p, int):
             parts[-1] = f"{parts[-1]}[{p}]"
         else:
-            parts.append(str(p))
+            parts.append(shown(p, 40))
     return ".".join(parts) or "spec"
 
 

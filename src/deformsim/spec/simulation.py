@@ -1,7 +1,7 @@
 """Simulated deformation scenarios of a spec (``simulation:``) and the variants a bank holds of each.
 
 A scenario is a physical situation the part can be crushed in; a bake simulates ``variants`` draws of its
-parameters (travel, tilt, impact point ...) once, with Blender's cloth solver (:mod:`deformsim.blender.simulate`),
+parameters (travel, tilt, impact point ...) once, with Blender's cloth solver (:mod:`deformsim.blender.motion.simulate`),
 and keeps each result as a bank entry. Travels are fractions of the part's extent along the press.
 """
 

@@ -109,19 +109,23 @@ def _normalise(mesh: bpy.types.Mesh, spec: Spec, path: Path) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m deformsim.blender.part.mesh_import MESH [SPEC]``: import only; print the size or the problem."""
+    """``python -m deformsim.blender.part.mesh_import MESH [SPEC]``: import the mesh and rig it as a worker does;
+    print its size and vertex count, or the problem."""
     import json
     import sys
 
+    from deformsim.blender.motion.rig import build_rig
     from deformsim.spec.model import load_spec
 
     args = sys.argv[1:] if argv is None else argv
     try:
-        obj = import_mesh(Path(args[0]), load_spec(args[1] if len(args) > 1 else None))
+        spec = load_spec(args[1] if len(args) > 1 else None)
+        obj = import_mesh(Path(args[0]), spec)
+        lo, hi = mesh_bounds(obj)  # before the rig's lattice modifier
+        build_rig(obj, spec)  # the vertex rule and opening keys fail here, not in a worker mid-run
     except UserError as exc:
         print(exc, file=sys.stderr)
         return 2
-    lo, hi = mesh_bounds(obj)
     print(json.dumps({"size": (hi - lo).tolist(), "vertices": len(obj.data.vertices)}))
     return 0
 

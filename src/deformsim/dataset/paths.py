@@ -1,0 +1,52 @@
+"""The files a dataset's manifests name: inside the dataset once symlinks are followed, and what they claim to be.
+
+A manifest row naming ``/etc/hostname``, ``../x`` or a symlink that leads out of the dataset is refused with one
+line naming the row and the file, and so is one that is not a regular file or, for an image, does not open as one.
+This is the one place for that check, meant for every reader of a dataset's files: :func:`dataset_file` (or
+:func:`dataset_files` for a table's column) and :func:`check_image`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+
+from deformsim.errors import UserError
+from deformsim.schema import shown
+
+
+def dataset_file(root: str | Path, name: str | Path, what: str) -> Path:
+    """``name`` (relative to the dataset ``root``, or absolute) with every symlink followed; a :class:`UserError`
+    naming ``what`` (the row and column it comes from) when that lies outside ``root``. It need not exist."""
+    if not isinstance(name, (str, Path)) or not str(name):
+        raise UserError(f"{what}: {shown(name)} is not a file name")
+    base = Path(root).resolve()
+    try:
+        path = (base / name).resolve()
+    except (OSError, RuntimeError, ValueError):  # a symlink loop, a NUL in the name
+        raise UserError(f"{what}: {shown(name, 200)} cannot be resolved in the dataset {root} (a symlink loop or a "
+                        "bad name)") from None
+    if not path.is_relative_to(base):
+        raise UserError(f"{what}: {shown(name, 200)} lies outside the dataset {root} (a path or symlink leading "
+                        "out of it): every file a dataset names must be inside it")
+    return path
+
+
+def dataset_files(root: str | Path, names: Iterable, what: Iterable[str]) -> list[str]:
+    """:func:`dataset_file` of each name (with its ``what``), as strings: a table column's paths."""
+    return [str(dataset_file(root, n, w)) for n, w in zip(names, what)]
+
+
+def check_image(path: str | Path, what: str) -> tuple[int, int]:
+    """The ``(width, height)`` of the image file at ``path``; a :class:`UserError` naming ``what`` when it is not a
+    regular file or does not open as an image."""
+    from PIL import Image
+
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(f"{what}: {shown(path, 200)} is not a file")
+    try:
+        with Image.open(path) as im:
+            return im.size
+    except Exception as exc:  # PIL raises many kinds for a file that is not an image
+        raise UserError(f"{what}: {shown(path, 200)} does not open as an image ({type(exc).__name__})") from None
