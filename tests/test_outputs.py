@@ -182,3 +182,19 @@ def test_the_cache_is_an_absolute_folder(tmp_path, monkeypatch):
     with pytest.raises(UserError, match="HOME is 'relative/home'.*set DEFORMSIM_CACHE to an absolute folder") as err:
         outputs.cache_dir()
     assert "\n" not in str(err.value)
+
+
+def test_a_file_output_is_never_one_of_the_command_inputs(tmp_path):
+    """`export MODEL --onnx MODEL/model.pt`, `predict ... --csv IMAGE` and the like would overwrite an input."""
+    from deformsim.outputs import check_file_target
+
+    model = tmp_path / "m"
+    model.mkdir()
+    (model / "model.pt").write_bytes(b"weights")
+    image = tmp_path / "a.png"
+    image.write_bytes(b"png")
+    for target, inputs in ((model / "model.pt", [model]), (tmp_path / "m" / ".." / "a.png", [model, image])):
+        with pytest.raises(UserError, match="is an input of this command"):
+            check_file_target(target, "--out", inputs)
+    assert check_file_target(model / "model.onnx", "--onnx", [model]) == model / "model.onnx"
+    assert (model / "model.pt").read_bytes() == b"weights" and image.read_bytes() == b"png"

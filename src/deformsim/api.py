@@ -133,9 +133,9 @@ class Engine:
         from deformsim.learn.predict import load
         from deformsim.outputs import check_file_target
 
-        if csv is not None:
-            check_file_target(csv, "--csv")
         paths = expand_images(list(images))
+        if csv is not None:
+            check_file_target(csv, "--csv", [model, *paths])
         predictor = load(model)
         if predictor.target == "label":
             proba, labels = predictor.predict(paths)
@@ -162,7 +162,7 @@ class Engine:
         from deformsim.outputs import check_file_target
 
         if out is not None:
-            check_file_target(out, "--out")
+            check_file_target(out, "--out", [model])
         self._check_real(real)
         what = real if real is not None else f"{data} / {variant}"
         self.notify(f"testing {model} on {what} (a progress bar follows on a terminal)")
@@ -212,7 +212,7 @@ class Engine:
         from deformsim.generate.spec_preview import render_preview
         from deformsim.outputs import check_file_target
 
-        out = check_file_target(out, "--out")  # before rendering
+        out = check_file_target(out, "--out", [spec, mesh])  # before rendering
         return render_preview(_path(spec), _path(mesh), out, resolution, samples)
 
     def sim2real(self, real: str | Path, out: str | Path, plan: Plan | None = None, adapt: str | Path | None = None,

@@ -21,7 +21,7 @@ import tempfile
 import uuid
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import Iterable, Iterator
 
 from deformsim.atomic import write_json
 from deformsim.errors import ResourceError, UserError
@@ -58,11 +58,19 @@ def _check_writable_parent(path: Path, flag: str) -> None:
     os.unlink(probe)
 
 
-def check_file_target(path: str | Path, flag: str) -> Path:
-    """A file to be written: not a folder, under folders (not files), in a place where files can be created."""
+def check_file_target(path: str | Path, flag: str, inputs: Iterable[str | Path | None] = ()) -> Path:
+    """A file to be written: not a folder, under folders (not files), in a place where files can be created, and
+    none of the command's ``inputs`` (a model folder stands for its ``model.pt``)."""
     path = Path(path)
     if path.is_dir():
         raise UserError(f"{flag} {path} is a folder: give the path of a file to write")
+    target = path.resolve()
+    for source in inputs:
+        if source is None:
+            continue
+        source = Path(source) / "model.pt" if Path(source).is_dir() else Path(source)
+        if source.resolve() == target:
+            raise UserError(f"{flag} {path} is an input of this command ({source}): choose another file")
     _check_writable_parent(path, flag)
     return path
 

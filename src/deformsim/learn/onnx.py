@@ -37,7 +37,7 @@ def to_onnx(model_path: str | Path, onnx_path: str | Path) -> Path:
 
     The output path is checked before the model is read; a failed write (a full disk) is one :class:`UserError`.
     """
-    onnx_path = check_file_target(onnx_path, "--onnx")
+    onnx_path = check_file_target(onnx_path, "--onnx", [model_path])
     ckpt, path = read_checkpoint(model_path)
     model, cfg = restore(ckpt, path)
     try:
