@@ -248,3 +248,15 @@ def test_a_mesh_file_with_nan_vertices_is_refused_by_spec_check_and_generate(mon
         with pytest.raises(UserError, match="nan.stl has vertex coordinates that are NaN or infinite"):
             run()
     assert not (tmp_path / "D").exists()
+
+
+def test_a_spec_that_cannot_rig_a_solid_mesh_is_refused_after_the_shape_checks():
+    """The probe rigs the mesh as a worker does; its rig error is the line, unless the shape itself is bad."""
+    from deformsim.generate.refusals import check_probe
+
+    rig = "spec 'part': displacement.vertex_rule selects no vertex of the mesh"
+    with pytest.raises(UserError, match="vertex_rule selects no vertex"):
+        check_probe(Path("m.stl"), {"size": [0.1, 0.1, 0.2], "vertices": 8, "rig": rig})
+    with pytest.raises(UserError, match="is flat"):
+        check_probe(Path("m.stl"), {"size": [0.1, 0.1, 0.0], "vertices": 8, "rig": rig})
+    assert check_probe(Path("m.stl"), {"size": [0.1, 0.1, 0.2], "vertices": 8}) == [0.1, 0.1, 0.2]

@@ -45,8 +45,9 @@ def check_part(spec: Spec, mesh: Path | None) -> None:
 
 
 def check_probe(mesh: Path, probed: dict) -> list[float]:
-    """The size (metres) the mesh probe measured of ``mesh``, or one line when it is no solid part: not finite,
-    fewer than 4 vertices, flat, or outside :data:`PART_SIZE`."""
+    """The size (metres) the mesh probe measured of ``mesh``, or one line when it is no solid part (not finite,
+    fewer than 4 vertices, flat, or outside :data:`PART_SIZE`) or the spec cannot rig it (``rig``: a vertex rule
+    that selects nothing, opening keys that do not fit)."""
     size = [float(v) for v in probed["size"]]
     if not all(math.isfinite(v) for v in size):
         raise UserError(f"mesh {mesh} has a size that is not finite ({size})")
@@ -59,6 +60,8 @@ def check_probe(mesh: Path, probed: dict) -> list[float]:
                         "(set units or size in the spec)")
     if min(size) <= FLAT * max(size):
         raise UserError(f"mesh {mesh} is flat ({dims} m): a part needs a solid shape")
+    if probed.get("rig"):
+        raise UserError(probed["rig"])
     return size
 
 

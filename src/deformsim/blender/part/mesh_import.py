@@ -121,12 +121,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         spec = load_spec(args[1] if len(args) > 1 else None)
         obj = import_mesh(Path(args[0]), spec)
-        lo, hi = mesh_bounds(obj)  # before the rig's lattice modifier
-        build_rig(obj, spec)  # the vertex rule and opening keys fail here, not in a worker mid-run
     except UserError as exc:
         print(exc, file=sys.stderr)
         return 2
-    print(json.dumps({"size": (hi - lo).tolist(), "vertices": len(obj.data.vertices)}))
+    lo, hi = mesh_bounds(obj)  # before the rig's lattice modifier
+    probed = {"size": (hi - lo).tolist(), "vertices": len(obj.data.vertices)}
+    try:
+        build_rig(obj, spec)  # the vertex rule and opening keys fail here, not in a worker mid-run
+    except UserError as exc:
+        probed["rig"] = str(exc)  # reported after the checks of the shape itself
+    print(json.dumps(probed))
     return 0
 
 
