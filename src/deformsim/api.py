@@ -206,14 +206,14 @@ class Engine:
         return SpecCheck(loaded, size, hint)
 
     def spec_preview(self, spec: str | Path | None, mesh: str | Path | None, out: str | Path, resolution: int = 192,
-                     samples: int = 16) -> Path:
+                     samples: int = 16, bank: bool = True) -> Path:
         """Render the rest shape and each key of a spec (default: the built-in can) at full weight into one labelled
-        PNG ``out``; its path."""
+        PNG ``out`` (``bank``: and each simulated bank entry, baked first when it is not cached); its path."""
         from deformsim.generate.spec_preview import render_preview
         from deformsim.outputs import check_file_target
 
         out = check_file_target(out, "--out", [spec, mesh])  # before rendering
-        return render_preview(_path(spec), _path(mesh), out, resolution, samples)
+        return render_preview(_path(spec), _path(mesh), out, resolution, samples, bank=bank, progress=self.progress)
 
     def sim2real(self, real: str | Path, out: str | Path, plan: Plan | None = None, adapt: str | Path | None = None,
                  datasets: str | Path | None = None) -> dict:

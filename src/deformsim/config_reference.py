@@ -61,6 +61,11 @@ def sections(model: type[BaseModel] = Config, prefix: str = "") -> Iterator[tupl
             yield from sections(f.section, f.key)
 
 
+def dotted_keys(model: type[BaseModel] = Config) -> list[str]:
+    """The dotted key of every field under ``model``, sections included, in :func:`sections` order."""
+    return [f.key for prefix, m in [("", model), *sections(model)] for f in fields(m, prefix)]
+
+
 def kind(annotation: object, metadata: tuple | list = ()) -> str:
     """The values a field of type ``annotation`` (with pydantic ``metadata``) takes, in words."""
     origin, args = get_origin(annotation), get_args(annotation)
@@ -129,6 +134,36 @@ def yaml_value(value: object) -> str:
     """``value`` (JSON) as one line of YAML."""
     text = yaml.safe_dump(value, default_flow_style=True, width=float("inf"), allow_unicode=True)
     return text.removesuffix("\n...\n").strip()
+
+
+def commented_yaml(config: Config) -> str:
+    """``config`` as a YAML file that loads back as it: every field under a comment with its description, the
+    values it takes and its default."""
+    return "\n".join(_yaml_lines(Config, config.model_dump(mode="json"), "", "")) + "\n"
+
+
+def _yaml_lines(model: type[BaseModel], values: dict, prefix: str, pad: str) -> Iterator[str]:
+    for f in fields(model, prefix):
+        name, value = f.key.rpartition(".")[2], values[f.key.rpartition(".")[2]]
+        if f.section is not None and isinstance(value, dict):
+            yield f"{pad}# {_sentence(f.description)}"
+            yield f"{pad}{yaml_value(name)}:"
+            yield from _yaml_lines(f.section, value, f.key, pad + "  ")
+        elif f.section is not None:  # an optional section that is off: its fields commented out, at their defaults
+            yield f"{pad}# {_sentence(f.description)} To turn it on, put the commented section below in place of this null."
+            yield f"{pad}{yaml_value(name)}: null"
+            yield f"{pad}# {yaml_value(name)}:"
+            yield from (f"{pad}# {line}" for line in _yaml_lines(f.section, f.section().model_dump(mode="json"),
+                                                                  f.key, "  "))
+        else:
+            default = "none" if isinstance(f.default, dict) else yaml_value(f.default)
+            yield f"{pad}# {_sentence(f.description)} {_sentence(f.kind.replace('`', ''))[:-1]}; default: {default}."
+            yield f"{pad}{yaml_value(name)}: {yaml_value(value)}"
+
+
+def _sentence(text: str) -> str:
+    """``text`` with a capital first letter and a full stop."""
+    return f"{text[:1].upper()}{text[1:]}."
 
 
 def _prose(doc: str | None) -> str:

@@ -29,4 +29,4 @@ def test_parse_sets_reads_yaml_values_and_refuses_bad_items():
     with pytest.raises(UserError, match="expected KEY=VALUE"):
         parse_sets(["train.epochs"])
     with pytest.raises(UserError, match="not valid YAML"):
-        parse_sets(["a=["])
+        parse_sets(["train.epochs=["])

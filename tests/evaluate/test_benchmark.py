@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from deformsim.errors import UserError
-from deformsim.evaluate.benchmark import Plan, aggregate, format_table
+from deformsim.evaluate.benchmark import Plan, aggregate
 
 
 def _run(variant, acc, f1, prec, rec, synth):
@@ -27,13 +27,6 @@ def test_aggregate_gives_mean_and_sample_std_per_variant():
     assert bg["recall_mean"] == pytest.approx(0.6) and bg["recall_std"] == pytest.approx(0.2)
     assert bg["synthetic_accuracy_mean"] == pytest.approx(0.95) and bg["synthetic_accuracy_std"] == pytest.approx(0.05)
     assert s["black"]["n_runs"] == 1 and s["black"]["accuracy_std"] == 0.0
-
-
-def test_table_shows_every_variant_and_the_baseline():
-    text = format_table(aggregate([_run("backgrounds", 0.6, 0.5, 1.0, 0.4, 0.9), _run("backgrounds", 0.8, 0.7, 0.8, 0.6, 0.95)]),
-                        baseline=0.623)
-    assert "| backgrounds | 2 | 0.700 ± 0.141 |" in text
-    assert "baseline on the real photos: accuracy 0.623" in text
 
 
 @pytest.mark.parametrize("kwargs", [{"train_seeds": 0}, {"composite_seeds": -1}, {"variants": ()}])

@@ -81,8 +81,9 @@ def test_report_section_is_escaped_and_self_contained(report):
     assert "Dense labels: severity, deformation families, localisation" in html
     assert "cr&lt;b&gt;ease" in html and "cr<b>ease" not in html
     assert f"{metrics['dense']['heads']['severity']['metrics']['mae_mm']:.2f} mm" in html
-    refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)""", html)
-    assert refs and all(r.startswith("data:") for r in refs)
+    srcs = re.findall(r"""src\s*=\s*["']?([^"'\s>]+)""", html)  # the page embeds every picture it shows
+    links = re.findall(r"""href\s*=\s*["']?([^"'\s>]+)""", html)  # and links only to the full-size photos
+    assert srcs and all(r.startswith("data:") for r in srcs) and all(r.startswith(("file:", "#")) for r in links)
 
 
 def test_plan_picks_a_composite_only_with_its_own_maps(data, tmp_path):

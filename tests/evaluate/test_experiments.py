@@ -108,8 +108,9 @@ def test_report_from_experiments(experiments):
     assert html.count("data:image/png;base64,") >= 4  # pixel PCA, feature PCA, training curves, reliability
     assert "Calibration on the real photographs" in html
     assert html.count('class="thumb cam ') == len(metrics["variants"]["black"]["real"]["gradcam"])
-    refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)""", html)
-    assert refs and all(r.startswith("data:") for r in refs)
+    srcs = re.findall(r"""src\s*=\s*["']?([^"'\s>]+)""", html)  # the page embeds every picture it shows
+    links = re.findall(r"""href\s*=\s*["']?([^"'\s>]+)""", html)  # and links only to the full-size photos
+    assert srcs and all(r.startswith("data:") for r in srcs) and all(r.startswith(("file:", "#")) for r in links)
 
 
 def test_cli_evaluate_and_report(experiments, four_samples, real_dir, tmp_path):

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from deformsim.errors import UserError
-from deformsim.evaluate.metrics import compute_metrics, confusion_matrix
+from deformsim.evaluate.metrics import compute_metrics, confusion_matrix, wilson_interval
 
 
 def test_metrics_match_hand_computed_values():
@@ -49,3 +49,38 @@ def test_confusion_matrix_layout():
 def test_bad_input_is_a_user_error(y, prob, match):
     with pytest.raises(UserError, match=match):
         compute_metrics(y, prob)
+
+
+def test_wilson_interval_matches_the_textbook_values():
+    assert wilson_interval(5, 10) == pytest.approx((0.2366, 0.7634), abs=1e-4)
+    assert wilson_interval(0, 10) == pytest.approx((0.0, 0.2775), abs=1e-4)  # never below 0 at the edge
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+
+
+def test_intervals_hold_the_value_and_narrow_with_more_photos():
+    rng = np.random.default_rng(1)
+    y = rng.integers(0, 2, 400)
+    prob = np.clip(y * 0.5 + rng.uniform(0, 0.6, 400), 0, 1)
+    small, big = compute_metrics(y[:40], prob[:40]), compute_metrics(y, prob)
+    for m in (small, big):
+        for k in ("accuracy", "f1"):
+            lo, hi = m["interval"][k]
+            assert lo <= m[k] <= hi
+    width = {k: [m["interval"][k][1] - m["interval"][k][0] for m in (small, big)] for k in ("accuracy", "f1")}
+    assert all(w_big < w_small / 2 for w_small, w_big in width.values())
+    assert compute_metrics(y, prob)["interval"] == big["interval"]  # seeded: the same every time
+    assert compute_metrics(y, prob, seed=3)["interval"]["f1"] != big["interval"]["f1"]
+
+
+def test_chance_accuracy_has_an_interval_over_the_baseline():
+    m = compute_metrics([0, 1] * 5, [0.9, 0.1] * 2 + [0.1, 0.9] * 3)  # 6 of 10 right, baseline 0.5
+    lo, hi = m["interval"]["accuracy"]
+    assert lo < 0.5 < hi
+
+
+def test_undefined_ratios_are_named():
+    assert compute_metrics(np.zeros(3, int), [0.1, 0.2, 0.3])["undefined"] == ["precision", "recall", "f1"]
+    none_predicted = compute_metrics([0, 1], [0.1, 0.2])
+    assert none_predicted["undefined"] == ["precision"] and none_predicted["interval"]["f1"] == [0.0, 0.0]
+    assert compute_metrics([0, 1], [0.1, 0.9])["undefined"] == []
+    assert compute_metrics(np.zeros(3, int), [0.1, 0.2, 0.3])["interval"]["f1"] is None

@@ -137,3 +137,22 @@ def test_a_model_write_that_torch_fails_is_a_resource_error(blobs, tmp_path, mon
     with pytest.raises(ResourceError, match="cannot write .*model.pt .*unexpected pos.*disk full"):
         fit(blobs.groupby("y").head(4), CFG.model_copy(update={"epochs": 1}), tmp_path / "m", progress=False)
     assert not list((tmp_path / "m").iterdir())  # no partial file left
+
+
+def test_epochs_are_logged_at_debug_and_each_training_in_one_info_line(blobs, tmp_path, capsys):
+    from deformsim.log import set_verbosity
+
+    small = blobs.groupby("y").head(6)
+    cfg = CFG.model_copy(update={"epochs": 2})
+    try:
+        fit(small, cfg, tmp_path / "normal", progress=False)
+        normal = capsys.readouterr().err.splitlines()
+        set_verbosity("verbose")
+        fit(small, cfg, tmp_path / "verbose", progress=False)
+        verbose = capsys.readouterr().err.splitlines()
+    finally:
+        set_verbosity("normal")
+    summary = [line for line in normal if " INFO trained 2 epochs on " in line]
+    assert len(summary) == 1 and "validation accuracy" in summary[0] and not any("epoch 1/2" in x for x in normal)
+    epochs = [line for line in verbose if " DEBUG epoch " in line]
+    assert len(epochs) == 2 and all("validation accuracy" in line for line in epochs)

@@ -55,3 +55,11 @@ def test_benchmark_report_without_real_labels_skips_the_reliability_diagram(resu
     html = write_benchmark_report(results, tmp_path).read_text()
     assert "No real labels" in html and "ECE" not in html
     assert html.count("data:image/png;base64,") == 1
+
+
+def test_benchmark_big_number_is_green_only_when_every_run_beats_the_baseline(results, tmp_path):
+    html = write_benchmark_report(results, tmp_path).read_text()  # best: 0.8 and 0.9 against 0.5
+    assert 'class="big above">85.0%' in html and "every run above the majority baseline" in html
+    results["majority_baseline"] = 0.85
+    html = write_benchmark_report(results, tmp_path).read_text()
+    assert 'class="big ">85.0%' in html and "runs on both sides of the majority baseline" in html

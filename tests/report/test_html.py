@@ -2,6 +2,7 @@
 
 import os
 import re
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -88,8 +89,12 @@ def test_report_shows_the_numbers_and_is_self_contained(metrics):
     # images inlined: PCA + curves (PNG), thumbnails (JPEG); nothing fetched from elsewhere
     assert html.count("data:image/png;base64,") >= 2
     assert html.count("data:image/jpeg;base64,") >= 8 + 4
-    refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)""", html)
-    assert refs and all(r.startswith("data:") for r in refs)
+    srcs = re.findall(r"""src\s*=\s*["']?([^"'\s>]+)""", html)
+    assert srcs and all(r.startswith("data:") for r in srcs)
+    photos = {Path(p["path"]).resolve().as_uri() for v in m["variants"].values() for part in ("split", "real")
+              for p in v[part].get("predictions", [])}
+    links = re.findall(r"""href\s*=\s*["']?([^"'\s>]+)""", html)
+    assert links and set(links) <= photos  # the only links: the full-size photos
     assert "url(" not in html and "@import" not in html and "<script" not in html
 
 
@@ -104,7 +109,7 @@ def test_report_shows_calibration_and_gradcam_of_the_real_photos(metrics):
     assert calibration.count("data:image/png;base64,") == 1  # one figure, a diagram per variant
     cams = html[html.index("Where the models look"):html.index("Domain gap")]
     assert "<h3>black</h3>" in cams and "<h3>backgrounds</h3>" not in cams  # only models with heatmaps
-    assert cams.count("data:image/jpeg;base64,") == 3 and "… and 5 more photos" in cams
+    assert cams.count("data:image/jpeg;base64,") == 3 and "3 of the 8 photos" in cams
     # misclassified first (red, most confident first), then the least confident right one; captions give the
     # label, P(deformed) and file name
     captions = re.findall(r'class="thumb cam (\w+)" title="([^"]+)"><img [^>]+>(.*?)<div class=sub>(.*?)</div>', cams)
@@ -124,3 +129,91 @@ def test_report_without_real_data_headlines_the_synthetic_test(metrics):
     hero = html[html.index('class="hero"'):html.index("Table II")]
     assert "75.0%" in hero  # black split: 3 of 4 right
     assert "no real folder given" in html
+
+
+def _only(m, variant, y, prob, n_files=None, folder=None):
+    """``m`` with one variant whose real test gave ``prob`` for labels ``y``."""
+    paths = [str(folder / f"{i}.png") for i in range(len(y))] if folder else [f"/photos/{i}.png" for i in range(len(y))]
+    m["variants"] = {variant: {"n_images": 8, "n_samples": 2, "examples": [],
+                               "split": {"skipped": "too few samples"},
+                               "real": _result(paths, y, prob, f"models/{variant}_full/model.pt")}}
+    return m
+
+
+def _hero(html):
+    return html[html.index('class="hero"'):html.index("Table II")]
+
+
+def test_big_number_is_green_only_when_its_interval_clears_the_baseline(metrics):
+    m, out = metrics
+    y = [0, 1] * 5
+    chance = write_report(_only(m, "black", y, [0.9, 0.1] * 2 + [0.1, 0.9] * 3), out).read_text()  # 60 %, base 50 %
+    assert 'class="big ">60.0%' in _hero(chance) and "not distinguishable from the majority baseline" in _hero(chance)
+    assert "95 % interval 31.3–83.2%" in _hero(chance)  # Wilson, 6 of 10
+    y = [0, 1] * 50
+    good = write_report(_only(m, "black", y, [0.1, 0.9] * 45 + [0.9, 0.1] * 5), out).read_text()  # 90 %
+    assert 'class="big above">90.0%' in _hero(good) and "above the majority baseline" in _hero(good)
+    bad = write_report(_only(m, "black", y, [0.9, 0.1] * 45 + [0.1, 0.9] * 5), out).read_text()  # 10 %
+    assert 'class="big below">10.0%' in _hero(bad)
+    assert "F1" in _hero(good) and "(bootstrap over the images)" in _hero(good)
+
+
+def test_undefined_precision_shows_a_dash_not_zero(metrics):
+    m, out = metrics
+    html = write_report(_only(m, "black", [0, 0, 1, 1], [0.1, 0.2, 0.3, 0.4]), out).read_text()  # none predicted deformed
+    assert "precision — · recall 0.0%" in _hero(html)
+    table = html[html.index('class="t2"'):html.index("</table>")]
+    assert table.count(">—<") == 1 and ">0.0%<span class=ci>0.0–0.0%</span>" in table  # F1 0 is defined
+
+
+def test_best_is_bold_only_with_a_margin(metrics):
+    m, out = metrics
+    html = write_report(m, out).read_text()  # black 5/8 and backgrounds 7/8: intervals overlap
+    assert 'class="best"' not in html and "best" not in re.findall(r'<td class="([^"]*)"', html)
+    y = [0, 1] * 100
+    far = _result([f"/p/{i}.png" for i in range(200)], y, [0.1, 0.9] * 95 + [0.9, 0.1] * 5, "models/a/model.pt")
+    near = _result([f"/p/{i}.png" for i in range(200)], y, [0.1, 0.9] * 50 + [0.9, 0.1] * 50, "models/b/model.pt")
+    m["variants"]["black"]["real"], m["variants"]["backgrounds"]["real"] = far, near
+    cells = re.findall(r'<td class="([^"]*)"[^>]*>([\d.]+%)', write_report(m, out).read_text())
+    bold = [value for cls, value in cells if "best" in cls.split()]
+    assert bold == ["95.0%", f"{100 * far['metrics']['f1']:.1f}%"]  # black's real accuracy and F1, nothing else
+
+
+def test_every_wrong_prediction_is_listed_with_name_probability_and_link(metrics, tmp_path):
+    m, out = metrics
+    y = [0, 1] * 15
+    prob = [0.8, 0.2] * 10 + [0.1, 0.9] * 5  # 20 wrong, 10 right
+    html = write_report(_only(m, "black", y, prob, folder=tmp_path / "photos"), out).read_text()
+    wrong = html[html.index("<h3>Wrong (20)"):html.index("<h3>Right (10)")]
+    rows = re.findall(r'<tr><td><a href="([^"]+)">.*?</a></td><td class=name><a href="([^"]+)">([^<]+)</a></td>'
+                      r"<td>(\w+)</td><td>([\d.]+)</td></tr>", wrong)
+    assert len(rows) == 20 and "more" not in wrong
+    for thumb_link, name_link, name, label, p in rows:
+        i = int(name.removesuffix(".png"))
+        assert thumb_link == name_link == (tmp_path / "photos" / name).resolve().as_uri()
+        assert (label, float(p)) == (("intact", "deformed")[y[i]], prob[i])
+
+
+def test_every_name_shown_is_escaped(metrics, tmp_path):
+    m, out = metrics
+    hostile = '<img src=x onerror="alert(1)">&.png'
+    folder = tmp_path / "evil"
+    folder.mkdir()
+    Image.new("RGB", (8, 8)).save(folder / hostile, format="PNG")
+    m = _only(m, "<b>v</b>", [0, 1], [0.9, 0.1], folder=folder)
+    pred = m["variants"]["<b>v</b>"]["real"]["predictions"]
+    pred[0]["path"] = str(folder / hostile)
+    m["missing_variants"] = ["<i>gone</i>"]
+    html = write_report(m, out).read_text()
+    assert "<img src=x" not in html and "<b>v</b>" not in html and "<i>gone</i>" not in html
+    assert "&lt;img src=x onerror=&quot;alert(1)&quot;&gt;&amp;.png" in html and "&lt;b&gt;v&lt;/b&gt;" in html
+
+
+def test_layout_fits_a_phone(metrics):
+    m, out = metrics
+    html = write_report(m, out).read_text()
+    # every table but the 2x2 confusion matrices scrolls in its own box; figures take the page's width; a narrow
+    # screen gets narrower margins (bench/report_screens.py looks at it in Chromium)
+    assert html.count("<table") == html.count("<div class=scroll><table") + html.count('<div class="cm">')
+    assert ".scroll{overflow-x:auto" in html and ".plots img{" in html and "width:100%" in html
+    assert "@media (max-width:640px)" in html

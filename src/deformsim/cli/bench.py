@@ -7,7 +7,8 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import ConfigArgs, console, fail_cleanly, parse_sets
+from deformsim.cli.common import ConfigArgs, console, fail_cleanly, set_option
+from deformsim.cli.summary import sim2real_summary
 
 SIZES = {True: {"generate.n": 320}, False: {"generate.n": 640}}  # --quick or not
 
@@ -32,19 +33,19 @@ def register(app: typer.Typer) -> None:
         train_seeds: Optional[int] = typer.Option(None, help="training seeds per draw (default 3)"),
         variants: str = typer.Option("black,backgrounds", help="comma-separated variants to train on"),
         adapt: Optional[Path] = typer.Option(None, "--adapt", help="unlabelled real photos to adapt to (labels never read)"),
-        set_: list[str] = typer.Option([], "--set", help="config override KEY=VALUE (repeatable), e.g. train.epochs=5"),
-        progress: bool = typer.Option(True, "--progress/--no-progress"),
+        set_: list[str] = set_option(),
+        progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
     ) -> None:
         """Train on synthetic images with several seeds; print real-photo metrics as mean ± std."""
-        from deformsim.evaluate.benchmark import Plan, format_table
+        from deformsim.evaluate.benchmark import Plan
 
         engine = ConfigArgs(config, {"--backgrounds": ("composite.backgrounds", str(backgrounds) if backgrounds else None)},
-                            overrides={**SIZES[quick], **parse_sets(set_)}).engine(progress)
+                            overrides=SIZES[quick], sets=set_).engine(progress)
         plan = Plan(data_seeds=data_seeds,
                     composite_seeds=composite_seeds or (2 if quick else 3),
                     train_seeds=train_seeds or (2 if quick else 3),
                     variants=tuple(v.strip() for v in variants.split(",") if v.strip()))
         results = engine.sim2real(real, out, plan, adapt=adapt, datasets=datasets)
-        console.print(format_table(results["variants"], results["majority_baseline"]), soft_wrap=True, markup=False)
-        console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'results.json'}, "
-                      f"report: {out / 'report.html'}")
+        console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'results.json'}",
+                      highlight=False, soft_wrap=True)
+        sim2real_summary(results, out / "report.html")

@@ -3,10 +3,11 @@ and SIGTERM handled like Ctrl-C."""
 
 from __future__ import annotations
 
+import difflib
 import functools
 import signal
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -16,7 +17,8 @@ from rich.console import Console
 from deformsim.dataset.images import REAL_RULE as REAL_HELP
 from deformsim.errors import UserError
 
-__all__ = ["REAL_HELP", "ConfigArgs", "console", "err_console", "fail_cleanly", "note", "parse_sets", "plain_engine"]
+__all__ = ["REAL_HELP", "ConfigArgs", "console", "err_console", "fail_cleanly", "from_config", "note", "parse_sets",
+           "plain_engine", "set_option"]
 
 console = Console()
 err_console = Console(stderr=True)
@@ -92,20 +94,40 @@ class ConfigArgs:
 
     ``flags`` maps each flag (``"--n"``) to its dotted config key and value (None: not given); a bad value is
     reported as the flag the user typed, not as the config file. ``overrides`` sets dotted keys that no flag
-    names (a bad value is reported as ``override KEY``); a given flag wins over an override of the same key.
+    names (a bad value is reported as ``override KEY``), and ``sets`` are the ``--set KEY=VALUE`` options, which
+    win over ``overrides``; a given flag wins over both.
     """
 
     source: str | Path | None = None
     flags: dict[str, tuple[str, object]] = field(default_factory=dict)
     overrides: dict[str, object] = field(default_factory=dict)
+    sets: Sequence[str] = ()
 
     def engine(self, progress: bool = True, notify: Callable[[str], None] | None = None):
         """The :class:`deformsim.api.Engine` of this config."""
         from deformsim.api import Engine
 
         given = {flag: (key, value) for flag, (key, value) in self.flags.items() if value is not None}
-        return Engine(self.source, {**self.overrides, **dict(given.values())}, progress=progress,
-                      flags={key: flag for flag, (key, _) in given.items()}, notify=notify)
+        sets = parse_sets(self.sets)
+        flags = {**{key: f"--set {key}" for key in sets}, **{key: flag for flag, (key, _) in given.items()}}
+        return Engine(self.source, {**self.overrides, **sets, **dict(given.values())}, progress=progress,
+                      flags=flags, notify=notify)
+
+
+@functools.cache
+def _quick() -> dict:
+    from deformsim.config import load_config
+
+    return load_config("quick").model_dump(mode="json")
+
+
+def from_config(text: str, key: str) -> str:
+    """The help of an option that sets config ``key``: ``text`` and where its default comes from."""
+    value = _quick()
+    for part in key.split("."):
+        value = value[part]
+    shown = ", ".join(map(str, value)) if isinstance(value, list) else "null" if value is None else str(value)
+    return f"{text} (default: {key} of the config, {shown} in quick)"
 
 
 def plain_engine(progress: bool = True, overrides: dict | None = None, notify: Callable[[str], None] | None = None):
@@ -116,8 +138,15 @@ def plain_engine(progress: bool = True, overrides: dict | None = None, notify: C
     return Engine(Config(), overrides, progress=progress, notify=notify)
 
 
-def parse_sets(items: list[str]) -> dict:
-    """``["train.epochs=5", ...]`` (``--set`` options) as dotted overrides; values are read as YAML scalars or lists."""
+def set_option():
+    """The ``--set KEY=VALUE`` option of a command that takes a config (read by :func:`parse_sets`)."""
+    return typer.Option([], "--set", metavar="KEY=VALUE",
+                        help="Set any config key, e.g. train.epochs=5; repeatable. Every key: deformsim config show.")
+
+
+def parse_sets(items: Sequence[str]) -> dict:
+    """``["train.epochs=5", ...]`` (``--set`` options) as dotted overrides; values are read as YAML scalars or lists.
+    A key the config does not have is refused with the closest key that it has."""
     import yaml
 
     from deformsim.schema import load_yaml, shown
@@ -127,11 +156,25 @@ def parse_sets(items: list[str]) -> dict:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise UserError(f"--set {shown(repr(item))}: expected KEY=VALUE, e.g. train.epochs=5")
+        _check_key(key.strip())
         try:
             out[key.strip()] = load_yaml(value)
         except yaml.YAMLError:
             raise UserError(f"--set {shown(repr(item))}: the value is not valid YAML") from None
     return out
+
+
+def _check_key(key: str) -> None:
+    """Refuse a dotted key that is no config field, naming the closest one."""
+    from deformsim.config_reference import dotted_keys
+    from deformsim.schema import shown
+
+    keys = dotted_keys()
+    if key in keys:
+        return
+    close = difflib.get_close_matches(key, keys, n=1, cutoff=0.6)
+    hint = f"did you mean {close[0]}?" if close else "deformsim config show lists every key"
+    raise UserError(f"--set {shown(key)}: no such config key ({hint})")
 
 
 def note(target: Console) -> Callable[[str], None]:

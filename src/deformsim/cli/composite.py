@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import ConfigArgs, console, err_console, fail_cleanly
+from deformsim.cli.common import ConfigArgs, console, err_console, fail_cleanly, set_option
 
 
 def register(app: typer.Typer) -> None:
@@ -29,7 +29,8 @@ def register(app: typer.Typer) -> None:
         config: Optional[str] = typer.Option(
             None, "--config", "-c", help="YAML config or preset (default: the dataset's config.yaml)"
         ),
-        progress: bool = typer.Option(True, "--progress/--no-progress"),
+        set_: list[str] = set_option(),
+        progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while compositing."),
     ) -> None:
         """Composite every image onto photo or procedural backgrounds (chroma key or exact alpha)."""
         import warnings
@@ -43,7 +44,7 @@ def register(app: typer.Typer) -> None:
         engine = ConfigArgs(config or (str(own) if own.is_file() else None), {
             "--backgrounds": ("composite.backgrounds", str(backgrounds) if backgrounds else None),
             "--matte": ("composite.matte", matte), "--workers": ("composite.workers", workers),
-        }).engine(progress)
+        }, sets=set_).engine(progress)
         with warnings.catch_warnings():
             warnings.simplefilter("always", BackgroundWarning)
             warnings.showwarning = lambda message, *a, **k: err_console.print(

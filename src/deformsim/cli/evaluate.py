@@ -7,19 +7,30 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import REAL_HELP, ConfigArgs, console, err_console, fail_cleanly, note, plain_engine
+from deformsim.cli.common import (
+    REAL_HELP,
+    ConfigArgs,
+    console,
+    err_console,
+    fail_cleanly,
+    from_config,
+    note,
+    plain_engine,
+    set_option,
+)
+from deformsim.cli.summary import metric_cell, print_table, report_summary
 
 
 def _print_metrics(title: str, m: dict) -> None:
     from rich.table import Table
 
-    t = Table(title=title, show_header=True, header_style="bold")
+    t = Table(title=f"{title} (95 % intervals)", show_header=True, header_style="bold")
     for col in ("images", "accuracy", "F1", "precision", "recall", "TN FP / FN TP"):
         t.add_column(col, justify="right")
     (tn, fp), (fn, tp) = m["confusion"]["matrix"]
-    t.add_row(str(m["n"]), *(f"{100 * m[k]:.1f}%" for k in ("accuracy", "f1", "precision", "recall")),
+    t.add_row(str(m["n"]), *(metric_cell(m, k) for k in ("accuracy", "f1", "precision", "recall")),
               f"{tn} {fp} / {fn} {tp}")
-    console.print(t)
+    print_table(t)
 
 
 def register(app: typer.Typer) -> None:
@@ -50,11 +61,14 @@ def register(app: typer.Typer) -> None:
         real: Optional[Path] = typer.Option(None, "--real", help=f"real photos for sim-to-real: {REAL_HELP}"),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help="report folder (default: DATA/report)"),
         config: str = typer.Option("quick", "--config", "-c", help="YAML config file or preset name"),
-        variants: Optional[str] = typer.Option(None, help="comma-separated training variants, e.g. black,backgrounds"),
-        epochs: Optional[int] = typer.Option(None, help="training epochs"),
-        weights: Optional[str] = typer.Option(None, help="backbone weights: imagenet, offline or none"),
+        variants: Optional[str] = typer.Option(None, help=from_config("Comma-separated training variants",
+                                                                      "train.variants")),
+        epochs: Optional[int] = typer.Option(None, help=from_config("Training epochs", "train.epochs")),
+        weights: Optional[str] = typer.Option(None, help=from_config("Backbone weights: imagenet, offline or none",
+                                                                     "train.weights")),
         overwrite: bool = typer.Option(False, "--overwrite", help="replace a report in --out made with other settings"),
-        progress: bool = typer.Option(True, "--progress/--no-progress"),
+        set_: list[str] = set_option(),
+        progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
     ) -> None:
         """Train and test per variant (the paper's Table II) and write report.html and metrics.json.
 
@@ -62,5 +76,6 @@ def register(app: typer.Typer) -> None:
         --overwrite; the new one is built beside it and swapped in whole (no old models or plots are left)."""
         names = [v.strip() for v in variants.split(",") if v.strip()] if variants is not None else None
         engine = ConfigArgs(config, {"--variants": ("train.variants", names), "--epochs": ("train.epochs", epochs),
-                                     "--weights": ("train.weights", weights)}).engine(progress, note(err_console))
-        console.print(f"report: {engine.report(data, out, real, overwrite=overwrite)}")
+                                     "--weights": ("train.weights", weights)},
+                            sets=set_).engine(progress, note(err_console))
+        report_summary(engine.report(data, out, real, overwrite=overwrite))

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Optional
 
 import typer
 from rich.table import Table
 
-from deformsim.cli.common import ConfigArgs, console, fail_cleanly, plain_engine
+from deformsim.cli.common import ConfigArgs, console, err_console, fail_cleanly, from_config, plain_engine, set_option
 from deformsim.learn.backbones import BACKBONES
 
 
@@ -17,20 +18,21 @@ def train(
                                 "(every image under each, subfolders included)"),
     out: Path = typer.Option(..., "--out", help="folder for model.pt and train.json"),
     variant: Optional[str] = typer.Option(None, help="image variant (default: the first of train.variants)"),
-    epochs: Optional[int] = typer.Option(None, help="override train.epochs"),
-    backbone: Optional[str] = typer.Option(None, help=f"override train.backbone ({', '.join(BACKBONES)})"),
-    weights: Optional[str] = typer.Option(None, help="override train.weights (imagenet, offline, none)"),
-    device: Optional[str] = typer.Option(None, help="override train.device (auto, cpu, cuda)"),
-    target: Optional[str] = typer.Option(
-        None, help="override train.target: label (intact/deformed), or on a dataset generated with render.dense: "
-        "severity (max displacement, mm), family (deformation kinds) or localise (deformed-region mask)"
-    ),
+    epochs: Optional[int] = typer.Option(None, help=from_config("Training epochs", "train.epochs")),
+    backbone: Optional[str] = typer.Option(None, help=from_config(f"Backbone: {', '.join(BACKBONES)}", "train.backbone")),
+    weights: Optional[str] = typer.Option(None, help=from_config("Backbone weights: imagenet, offline or none",
+                                                                 "train.weights")),
+    device: Optional[str] = typer.Option(None, help=from_config("Training device: auto, cpu or cuda", "train.device")),
+    target: Optional[str] = typer.Option(None, help=from_config(
+        "What to learn: label (intact/deformed), or on a dataset generated with render.dense: severity (max "
+        "displacement, mm), family (deformation kinds) or localise (deformed-region mask)", "train.target")),
     config: Optional[str] = typer.Option(None, "--config", "-c", help="YAML config file or preset name"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace a model in --out trained with other settings"),
     adapt: Optional[Path] = typer.Option(
         None, "--adapt", help="unlabelled photos of real parts to adapt to (any folder; needs train.feature_norm)"
     ),
-    progress: bool = typer.Option(True, "--progress/--no-progress"),
+    set_: list[str] = set_option(),
+    progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while training."),
 ) -> None:
     """Train the deformation classifier (or a --target head) on a dataset variant (80/20 split, grouped by object).
 
@@ -39,7 +41,7 @@ def train(
     engine = ConfigArgs(config, {
         "--epochs": ("train.epochs", epochs), "--backbone": ("train.backbone", backbone),
         "--weights": ("train.weights", weights), "--device": ("train.device", device), "--target": ("train.target", target),
-    }).engine(progress)
+    }, sets=set_).engine(progress)
     result = engine.train(data, out, variant, adapt, overwrite=overwrite)
     cfg = engine.config.train
     last = result.history[-1]
@@ -58,12 +60,17 @@ def predict(
 ) -> None:
     """Print P(deformed) and the predicted label of each image (or what a --target model predicts)."""
     prediction = plain_engine().predict(model_dir, images, csv)
-    table = Table("image", *prediction.headings)
-    for i, p in enumerate(prediction.paths):
-        table.add_row(str(p), *(v[i] if isinstance(v[i], str) else f"{v[i]:.4f}" for v in prediction.columns.values()))
-    console.print(table)
+    rows = [[str(p), *(v[i] if isinstance(v[i], str) else f"{v[i]:.4f}" for v in prediction.columns.values())]
+            for i, p in enumerate(prediction.paths)]
+    if console.is_terminal:
+        table = Table("image", *prediction.headings)
+        for row in rows:
+            table.add_row(*row)
+        console.print(table)
+    else:  # a file or pipe: whole paths, one tab-separated line per image
+        sys.stdout.write("".join("\t".join(row) + "\n" for row in rows))
     if csv is not None:
-        console.print(f"wrote {csv}")
+        err_console.print(f"wrote {csv}", highlight=False, soft_wrap=True)
 
 
 def export(

@@ -7,7 +7,8 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import REAL_HELP, ConfigArgs, console, fail_cleanly, note
+from deformsim.cli.common import REAL_HELP, ConfigArgs, console, err_console, fail_cleanly, from_config, note, set_option
+from deformsim.cli.summary import report_summary
 
 
 def register(app: typer.Typer) -> None:
@@ -20,18 +21,19 @@ def register(app: typer.Typer) -> None:
         backgrounds: Optional[Path] = typer.Option(None, "--backgrounds", help="background photos (default: procedural)"),
         object_: Optional[Path] = typer.Option(None, "--object", help="CAD mesh instead of the built-in can"),
         spec: Optional[Path] = typer.Option(None, "--spec", help="deformation spec YAML for --object"),
-        n: Optional[int] = typer.Option(None, "--n", help="number of images"),
-        resolution: Optional[int] = typer.Option(None, help="image size in pixels"),
-        samples: Optional[int] = typer.Option(None, help="Cycles samples per pixel"),
-        epochs: Optional[int] = typer.Option(None, help="training epochs"),
-        seed: Optional[int] = typer.Option(None, help="seed fixing every random choice"),
+        n: Optional[int] = typer.Option(None, "--n", help=from_config("Number of images", "generate.n")),
+        resolution: Optional[int] = typer.Option(None, help=from_config("Image size in pixels", "render.resolution")),
+        samples: Optional[int] = typer.Option(None, help=from_config("Cycles samples per pixel", "render.samples")),
+        epochs: Optional[int] = typer.Option(None, help=from_config("Training epochs", "train.epochs")),
+        seed: Optional[int] = typer.Option(None, help=from_config("Seed fixing every random choice", "generate.seed")),
         overwrite: bool = typer.Option(
             False, "--overwrite", help="render the dataset anew when it holds more images than --n (else refused)"
         ),
         yes: bool = typer.Option(
             False, "--yes", help="start a plan of more than 100000 images (without it: the estimated time and disk, and a stop)"
         ),
-        progress: bool = typer.Option(True, "--progress/--no-progress"),
+        set_: list[str] = set_option(),
+        progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
     ) -> None:
         """Generate, composite, train, evaluate and report; stages already up to date are skipped.
 
@@ -41,9 +43,10 @@ def register(app: typer.Typer) -> None:
             "--resolution": ("render.resolution", resolution), "--samples": ("render.samples", samples),
             "--epochs": ("train.epochs", epochs), "--seed": ("generate.seed", seed),
             "--backgrounds": ("composite.backgrounds", backgrounds),
-        }).engine(progress, note(console)).run(out, real, overwrite=overwrite, yes=yes)
+        }, sets=set_).engine(progress, note(err_console)).run(out, real, overwrite=overwrite, yes=yes)
         for name, secs in result.seconds.items():
             console.print(f"  {name:<24} {secs:7.1f} s")
         if result.skipped:
             console.print(f"  up to date, skipped: {', '.join(result.skipped)}")
-        console.print(f"[bold green]report:[/] {result.report}")
+        if result.report is not None:
+            report_summary(result.report)

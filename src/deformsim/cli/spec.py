@@ -40,8 +40,13 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(Path("spec_preview.png"), "--out", "-o", help="PNG to write"),
         resolution: int = typer.Option(192, help="tile size in pixels"),
         samples: int = typer.Option(16, help="Cycles samples per pixel"),
+        no_bank: bool = typer.Option(False, "--no-bank", help="Render the lattice keys, textures and openings "
+                                     "alone: no simulated bank tiles, so no bank to bake first."),
+        progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while it renders."),
     ) -> None:
         """Render the rest shape and each key at full weight into one labelled image."""
         sizes = ConfigArgs(flags={"--resolution": ("render.resolution", resolution),
-                                  "--samples": ("render.samples", samples)})  # within the config's ranges
-        console.print(f"spec preview: {sizes.engine().spec_preview(file, object_, out, resolution, samples)}")
+                                  "--samples": ("render.samples", samples)})
+        engine = sizes.engine(progress)  # the sizes within the config's ranges
+        path = engine.spec_preview(file, object_, out, resolution, samples, bank=not no_bank)
+        console.print(f"spec preview: {path}")

@@ -7,11 +7,14 @@ import pandas as pd
 from PIL import Image, ImageDraw, ImageFont
 
 from deformsim.atomic import atomic_path
+from deformsim.dataset.dense import read_deform_mm, read_depth_mm, read_mask
 from deformsim.dataset.images import CLASSES, open_rgb
-from deformsim.dataset.layout import Layout
+from deformsim.dataset.layout import DENSE_KINDS, Layout
 from deformsim.dataset.manifest import read_manifest
+from deformsim.errors import UserError
 
 COLORS = dict(zip(CLASSES, ((46, 160, 67), (207, 34, 46))))  # green, red
+MAP_GREY = (90, 90, 90)
 
 
 def pick(df: pd.DataFrame, count: int, seed: int) -> pd.DataFrame:
@@ -51,3 +54,47 @@ def contact_sheet(layout: Layout, count: int, seed: int, column: str = "rgba") -
     sheet = grid(images, captions, cols=min(4, max(1, len(images))))
     with atomic_path(layout.preview) as tmp:
         sheet.save(tmp, format="PNG")
+
+
+def _scaled(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """``values`` on the part mapped to 0..1 (0 off the part)."""
+    if not mask.any():
+        return np.zeros(values.shape, np.float32)
+    lo, hi = float(values[mask].min()), float(values[mask].max())
+    return np.where(mask, (values - lo) / (hi - lo) if hi > lo else 0.0, 0.0).astype(np.float32)
+
+
+def map_image(kind: str, path) -> Image.Image:
+    """A dense map as a picture: masks in white, depth near-bright, normals as RGB, deformation in heat colours."""
+    if kind in ("mask", "region"):
+        return Image.fromarray(read_mask(path).astype(np.uint8) * 255)
+    if kind == "normal":
+        return open_rgb(path)
+    if kind == "depth":
+        depth = read_depth_mm(path)
+        on = depth > 0
+        return Image.fromarray(np.where(on, 255 - 215 * _scaled(depth, on), 0).astype(np.uint8))
+    t = np.clip(read_deform_mm(path) / 3.0, 0, 1)  # 3 mm and more: full heat
+    heat = np.stack([np.clip(2 * t, 0, 1), np.clip(2 * t - 1, 0, 1), np.zeros_like(t)], axis=-1)
+    return Image.fromarray((heat * 255).astype(np.uint8))
+
+
+def variant_sheet(df: pd.DataFrame, count: int, seed: int, dense: bool) -> Image.Image:
+    """Random images of a variant table (``variants.variant_table``) with their labels; with ``dense``, one row per
+    image: the image, then its mask, depth, normal, deform and region maps."""
+    rows = pick(df, count, seed)
+    if not dense:
+        images = [open_rgb(p) for p in rows["path"]]
+        captions = [(f"{r.label}  {r.id}", COLORS[r.label]) for r in rows.itertuples()]
+        return grid(images, captions, cols=min(4, max(1, len(images))))
+    missing = [k for k in DENSE_KINDS if k not in df.columns]
+    if missing:
+        raise UserError(f"the dataset has no dense maps ({', '.join(missing)}): generate it with render.dense on")
+    images, captions = [], []
+    for r in rows.itertuples():
+        images.append(open_rgb(r.path))
+        captions.append((f"{r.label}  {r.id}", COLORS[r.label]))
+        for kind in DENSE_KINDS:
+            images.append(map_image(kind, getattr(r, kind)))
+            captions.append((kind, MAP_GREY))
+    return grid(images, captions, cols=1 + len(DENSE_KINDS))

@@ -68,17 +68,6 @@ def aggregate(runs: list[dict]) -> dict[str, dict]:
     return out
 
 
-def format_table(summary: dict[str, dict], baseline: float) -> str:
-    """The results as a Markdown table (mean +- std), for the terminal and docs/benchmarks.md."""
-    head = "| trained on | runs | real accuracy | real F1 | precision | recall | synthetic accuracy |"
-    lines = [head, "|---|---|---|---|---|---|---|"]
-    for variant, r in summary.items():
-        cells = [f"{r[f'{k}_mean']:.3f} ± {r[f'{k}_std']:.3f}" for k in (*REAL_METRICS, "synthetic_accuracy")]
-        lines.append(f"| {variant} | {r['n_runs']} | " + " | ".join(cells) + " |")
-    lines.append(f"\nmajority-class baseline on the real photos: accuracy {baseline:.3f}")
-    return "\n".join(lines)
-
-
 def _draws(variant: str, plan: Plan) -> range:
     return range(1) if variant in RENDERED else range(plan.composite_seeds)
 

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import yaml
 
 from deformsim.atomic import write_bytes, write_json
 from deformsim.config import TrainConfig
@@ -32,6 +33,7 @@ from deformsim.evaluate.dense_experiments import plan as plan_dense
 from deformsim.evaluate.dense_experiments import run_dense
 from deformsim.evaluate.metrics import compute_metrics
 from deformsim.log import get_logger
+from deformsim.version import __version__
 
 log = get_logger(__name__)
 
@@ -148,6 +150,25 @@ def _load_tables(data_root: Path, cfg: TrainConfig) -> tuple[dict[str, pd.DataFr
     return tables, [v for v in cfg.variants if v not in available]
 
 
+def _record(path: Path) -> dict | None:
+    """A JSON or YAML mapping the report only shows; None when it is missing or unreadable."""
+    try:
+        value = yaml.safe_load(path.read_text()) if path.is_file() else None
+    except (OSError, ValueError, yaml.YAMLError):
+        return None
+    return value if isinstance(value, dict) else None
+
+
+def provenance(data_root: Path, variants: list[str]) -> dict:
+    """What the dataset was made from: its config, its inputs' digests and each variant's compositing settings."""
+    from deformsim.composite.stage import SETTINGS_FILE
+    from deformsim.dataset.layout import Layout
+
+    layout = Layout(data_root)
+    composite = {v: s for v in variants if (s := _record(layout.variant_dir(v) / SETTINGS_FILE)) is not None}
+    return {"config": _record(layout.config), "inputs": _record(layout.inputs), "composite": composite}
+
+
 def _summary(entry: dict) -> dict:
     keys = ("accuracy", "f1", "precision", "recall")
     return {
@@ -219,6 +240,8 @@ def run_experiments(
         "real_dir": str(Path(real_dir).resolve()) if real_dir is not None else None,
         "real": _counts(real) if real is not None else None,
         "settings": cfg.model_dump(mode="json"),
+        "version": __version__,
+        "data": provenance(data_root, list(tables)),
         "missing_variants": missing,
         "variants": variants,
         "plots": plots,

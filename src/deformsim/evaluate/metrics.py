@@ -1,8 +1,10 @@
 """Binary classification metrics with *deformed* as the positive class. Pure numpy.
 
 A probability at or above the threshold predicts *deformed*. A ratio whose denominator is zero (precision
-with no positive prediction, recall with no deformed image, F1 when precision + recall is zero) is defined
-as 0.
+with no positive prediction, recall with no deformed image, F1 when precision + recall is zero) is given as 0
+and named in ``undefined`` when nothing defines it (no positive prediction; no deformed image; neither), so a
+reader can show "-". ``interval`` holds 95 % intervals: Wilson's for accuracy, a seeded bootstrap over the
+images for F1.
 """
 
 from __future__ import annotations
@@ -15,6 +17,35 @@ from deformsim.errors import UserError
 
 def _ratio(num: float, den: float) -> float:
     return float(num / den) if den else 0.0
+
+
+Z95 = 1.959964  # the normal quantile of a two-sided 95 % interval
+BOOTSTRAP = 2000  # resamples of the F1 interval
+
+
+def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
+    """Wilson score interval of a proportion ``successes / n`` (95 % by default); (0, 1) when ``n`` is 0."""
+    if n <= 0:
+        return 0.0, 1.0
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return float(max(0.0, centre - half)), float(min(1.0, centre + half))
+
+
+def f1_interval(y_true, y_pred, seed: int = 0, n_boot: int = BOOTSTRAP) -> tuple[float, float] | None:
+    """95 % percentile bootstrap interval of F1 over the images (resampled with replacement, seeded); None when
+    F1 is undefined (no deformed image and no positive prediction). Resamples without either are left out."""
+    y, p = np.asarray(y_true, dtype=int), np.asarray(y_pred, dtype=int)
+    if not (y.any() or p.any()):
+        return None
+    idx = np.random.default_rng(seed).integers(0, y.size, size=(n_boot, y.size))
+    ys, ps = y[idx], p[idx]
+    tp = (ys & ps).sum(axis=1)
+    den = ys.sum(axis=1) + ps.sum(axis=1)  # 2TP + FP + FN
+    f1 = 2 * tp[den > 0] / den[den > 0]
+    lo, hi = np.percentile(f1, [2.5, 97.5])
+    return float(lo), float(hi)
 
 
 def _check(y_true, prob, threshold: float) -> tuple[np.ndarray, np.ndarray]:
@@ -42,12 +73,15 @@ def confusion_matrix(y_true, y_pred) -> np.ndarray:
     return cm
 
 
-def compute_metrics(y_true, prob, threshold: float = 0.5) -> dict:
-    """Accuracy, precision, recall, F1 and the confusion matrix of ``prob >= threshold`` against ``y_true``."""
+def compute_metrics(y_true, prob, threshold: float = 0.5, seed: int = 0) -> dict:
+    """Accuracy, precision, recall, F1, the confusion matrix of ``prob >= threshold`` against ``y_true``, the names
+    of the undefined ratios and the 95 % intervals of accuracy and F1 (the bootstrap seeded by ``seed``)."""
     y, p = _check(y_true, prob, threshold)
-    cm = confusion_matrix(y, (p >= threshold).astype(int))
+    pred = (p >= threshold).astype(int)
+    cm = confusion_matrix(y, pred)
     (tn, fp), (fn, tp) = cm.tolist()
     precision, recall = _ratio(tp, tp + fp), _ratio(tp, tp + fn)
+    f1 = f1_interval(y, pred, seed)
     return {
         "n": int(y.size),
         "n_deformed": int(y.sum()),
@@ -56,6 +90,8 @@ def compute_metrics(y_true, prob, threshold: float = 0.5) -> dict:
         "precision": precision,
         "recall": recall,
         "f1": _ratio(2 * precision * recall, precision + recall),
+        "undefined": [k for k, den in (("precision", tp + fp), ("recall", tp + fn), ("f1", tp + fp + fn)) if not den],
+        "interval": {"accuracy": list(wilson_interval(tp + tn, int(y.size))), "f1": None if f1 is None else list(f1)},
         "confusion": {
             "matrix": cm.tolist(),
             "rows": [f"true {c}" for c in CLASSES],

@@ -3,6 +3,8 @@
 Actors write into the shared output folder, or, with ``generate.gather``, render into a node-local folder
 and return the image bytes, which the driver writes. The driver alone writes sample records, so resume,
 retries and the manifest work as with the local backend. Install with ``pip install deformsim[ray]``.
+A cluster with token authentication (Ray 2.60's default) needs its token on the driver: ``RAY_AUTH_TOKEN``,
+``RAY_AUTH_TOKEN_PATH`` or ``~/.ray/auth_token``; where ``RAY_AUTH_MODE`` is unset, a token found there turns it on.
 """
 
 from __future__ import annotations
@@ -77,6 +79,44 @@ class RenderActor:
             shutil.rmtree(self.local, ignore_errors=True)
 
 
+def _use_token_if_present() -> None:
+    """Send the cluster token when one is at hand: Ray turns token mode on by itself only for ``auto``."""
+    try:
+        from ray._private.authentication.authentication_token_setup import (
+            maybe_enable_token_auth_if_token_available,
+        )
+    except ImportError:  # a Ray without token authentication
+        return
+    maybe_enable_token_auth_if_token_available(warn_if_disabled=False)
+
+
+def _is_auth_failure(exc: BaseException | None) -> bool:
+    while exc is not None:
+        if type(exc).__name__ == "AuthenticationError" or "InvalidAuthToken" in str(exc):
+            return True
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+def connect(address: str | None) -> None:
+    """``ray.init`` at ``address`` with the cluster's token; a refusal for want of it names authentication."""
+    import ray
+
+    _use_token_if_present()
+    try:
+        ray.init(address=address, include_dashboard=False, log_to_driver=False)
+    except Exception as exc:
+        if _is_auth_failure(exc):
+            raise UserError(
+                f"Ray cluster at {address} refused this driver's authentication token: copy the head node's "
+                "~/.ray/auth_token here (or set RAY_AUTH_TOKEN or RAY_AUTH_TOKEN_PATH) and RAY_AUTH_MODE=token"
+            ) from None
+        if isinstance(exc, ConnectionError):
+            raise UserError(f"could not connect to the Ray cluster at {address}: is Ray running there "
+                            "(`ray status`) and its port open?") from None
+        raise
+
+
 def run_ray(cfg: Config, layout: Layout, params: dict[int, SampleParams], progress: bool) -> tuple[dict[int, str], str]:
     """Render ``params`` on Ray actors; returns (failed samples with reasons, device)."""
     try:
@@ -87,7 +127,7 @@ def run_ray(cfg: Config, layout: Layout, params: dict[int, SampleParams], progre
 
     started_here = not ray.is_initialized()
     if started_here:
-        ray.init(address=cfg.generate.address, include_dashboard=False, log_to_driver=False)
+        connect(cfg.generate.address)
     try:
         cpus = int(ray.cluster_resources().get("CPU", 1))
         n_actors = worker_count(len(params), cfg.generate.workers, cores=cpus, cores_each=2)

@@ -10,14 +10,21 @@ from PIL import Image
 
 from deformsim.atomic import atomic_path
 from deformsim.bank.stage import bake
+from deformsim.bank.store import bank_dir, is_complete
 from deformsim.config import load_config
 from deformsim.dataset.contact_sheet import grid
 from deformsim.dataset.layout import Layout, image_id
 from deformsim.generate.backend import worker_setup
 from deformsim.generate.stage import prepare
+from deformsim.log import get_logger, progress_bar
 from deformsim.sampling import SampleParams, sample_params
 from deformsim.spec.model import load_spec
 from deformsim.spec.simulation import entry_names
+
+log = get_logger(__name__)
+
+BAKE_SECONDS_PER_ENTRY = 13  # measured on 2 cores (docs/benchmarks.md, bank bake)
+REST_GREY, DEFORMED_RED = (60, 60, 60), (207, 34, 46)
 
 FIXED_VIEW = {"camera.azimuth_quadrants": [[40, 40]], "pose.tilt": [0, 0], "camera.polar": [62, 62],
               "camera.radius": [0.36, 0.36], "lighting.rotation": [90, 90], "lighting.strength": [1.0, 1.0]}
@@ -40,34 +47,52 @@ def preview_states(base: SampleParams, openings: bool, bank: list[str] = ()) -> 
     return [(name, dataclasses.replace(p, index=i)) for i, (name, p) in enumerate(states)]
 
 
-def render_preview(spec_path: Path | None, mesh: Path | None, out: Path, resolution: int, samples: int) -> Path:
+def plan_message(states: list[tuple[str, SampleParams]], bake_entries: int) -> str:
+    """What the preview is about to do: its tiles, and the bank bake first when one is due."""
+    text = f"spec preview: {len(states)} tiles ({', '.join(name for name, _ in states)})"
+    if bake_entries:
+        minutes = max(1, round(bake_entries * BAKE_SECONDS_PER_ENTRY / 60))
+        text += (f"; the simulated bank is not baked yet: baking its {bake_entries} scenarios first, about "
+                 f"{minutes} min on 2 cores (--no-bank skips them)")
+    return text
+
+
+def render_preview(spec_path: Path | None, mesh: Path | None, out: Path, resolution: int, samples: int,
+                   bank: bool = True, progress: bool = True) -> Path:
+    """Write the preview sheet ``out``; ``bank=False`` leaves out the simulated bank's tiles (and its bake)."""
     from deformsim.generate.worker_client import WorkerProcess
 
     overrides = {**FIXED_VIEW, "object.spec": spec_path, "object.mesh": mesh, "generate.n": 1,
                  "render.resolution": resolution, "render.samples": samples}
     spec = load_spec(spec_path)
-    if spec.simulation is not None:
+    bank = bank and spec.simulation is not None
+    if bank:
         overrides["deform.sources.bank"] = 1.0  # the worker loads the bank
     cfg = load_config("quick", overrides)
     with tempfile.TemporaryDirectory(prefix="deformsim-preview-") as tmp:
         spec, hdris = prepare(cfg, Path(tmp), spec=spec)
-        if spec.simulation is not None:
-            bake(spec, spec_path, mesh)
         hdri = "studio" if "studio" in hdris else hdris[0]
         base = dataclasses.replace(sample_params(0, 0, cfg, spec, hdris), hdri=hdri)
-        states = preview_states(base, openings=bool(spec.openings.seal), bank=entry_names(spec.simulation))
+        states = preview_states(base, openings=bool(spec.openings.seal),
+                                bank=entry_names(spec.simulation) if bank else [])
+        to_bake = len(entry_names(spec.simulation)) if bank and not is_complete(bank_dir(spec, mesh), spec) else 0
+        log.info(plan_message(states, to_bake))
+        if bank:
+            bake(spec, spec_path, mesh, progress=progress)
         layout = Layout(Path(tmp))
         worker = WorkerProcess(log_path=Path(tmp) / "worker.log")
         try:
             worker.start(worker_setup(cfg, layout))
             images, captions = [], []
-            for name, p in states:
-                reply = worker.render(p.to_dict())
-                if "error" in reply:
-                    raise RuntimeError(f"rendering '{name}' failed: {reply['message']}")
-                img = Image.open(layout.image("black", image_id(p.index, 0)))
-                images.append(img.copy())
-                captions.append((name, (60, 60, 60) if name == "rest" else (207, 34, 46)))
+            with progress_bar(len(states), "preview tiles", progress) as bar:
+                for name, p in states:
+                    reply = worker.render(p.to_dict())
+                    if "error" in reply:
+                        raise RuntimeError(f"rendering '{name}' failed: {reply['message']}")
+                    img = Image.open(layout.image("black", image_id(p.index, 0)))
+                    images.append(img.copy())
+                    captions.append((name, DEFORMED_RED if p.label == "deformed" else REST_GREY))
+                    bar.update(1)
         finally:
             worker.close()
     sheet = grid(images, captions, tile=resolution, cols=5)

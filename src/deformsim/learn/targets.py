@@ -147,7 +147,6 @@ def fit_head(model: DeformNet, stems: torch.Tensor, table: pd.DataFrame, train_r
             history.append({"epoch": epoch, "loss": loss, "score": score, "val_loss": val_loss, "val_score": val_score,
                             "metric": SCORES[cfg.target], "seconds": time.perf_counter() - t0})
             bar.update()
-            if progress:
-                log.info("epoch %d/%d: loss %.3f, %s %.3f, validation %s", epoch, cfg.epochs, loss, SCORES[cfg.target],
-                         score, "-" if val_score is None else f"{val_score:.3f}")
+            log.debug("epoch %d/%d: loss %.3f, %s %.3f, validation %s %s", epoch, cfg.epochs, loss, SCORES[cfg.target],
+                      score, SCORES[cfg.target], "-" if val_score is None else f"{val_score:.3f}")
     return history

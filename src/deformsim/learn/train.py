@@ -149,10 +149,19 @@ def _fit_label(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor,
                    "val_loss": val_loss, "val_acc": val_acc, "seconds": time.perf_counter() - t0}
             history.append(row)
             bar.update()
-            if progress:
-                log.info("epoch %d/%d: loss %.3f, acc %.2f, val_acc %s", epoch, cfg.epochs, row["loss"], row["acc"],
-                         "-" if val_acc is None else f"{val_acc:.2f}")
+            log.debug("epoch %d/%d: loss %.3f, accuracy %.3f, validation accuracy %s", epoch, cfg.epochs, row["loss"],
+                      row["acc"], "-" if val_acc is None else f"{val_acc:.3f}")
     return history
+
+
+def _log_summary(history: list[dict], cfg: TrainConfig, n_train: int, n_val: int, seconds: float) -> None:
+    """One info line per training: the last epoch's loss and score on the training and the validation images."""
+    last = history[-1]
+    metric = last.get("metric", "accuracy")
+    score, val = (last["acc"], last["val_acc"]) if cfg.target == "label" else (last["score"], last["val_score"])
+    log.info("trained %d epoch%s on %d images in %.1f s: loss %.3f, %s %.3f, validation %s %s (%d images)",
+             len(history), "" if len(history) == 1 else "s", n_train, seconds, last["loss"], metric, score, metric,
+             "-" if val is None else f"{val:.3f}", n_val)
 
 
 def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = True,
@@ -196,6 +205,7 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     out_dir = Path(out_dir)
     model_path = out_dir / checkpoint.MODEL_FILE
     seconds = time.perf_counter() - start
+    _log_summary(history, cfg, len(train_rows), len(val_rows), seconds)
     split_ids = {"train": table["id"].iloc[train_rows.numpy()].tolist(), "val": table["id"].iloc[val_rows.numpy()].tolist()}
     checkpoint.save(model_path, model, cfg, weights, history, split_ids, None if cfg.target == "label" else outputs)
     write_json(out_dir / "train.json", {"weights": weights, "seconds": seconds, "history": history,

@@ -34,9 +34,13 @@ def _mine(results: dict, variant: str) -> list[dict]:
 def _hero(results: dict) -> str:
     v, s = max(results["variants"].items(), key=lambda kv: kv[1]["accuracy_mean"])
     n = results.get("real_images", len(results["real_paths"]))
+    accs, base = [r["real"]["accuracy"] for r in _mine(results, v)], results["majority_baseline"]
+    verdict = "above" if min(accs) > base else "below" if max(accs) < base else ""
+    judged = {"above": "every run above", "below": "every run below"}.get(verdict, "runs on both sides of")
     return (
-        f'<div class="hero"><div class="card"><div class="big">{100 * s["accuracy_mean"]:.1f}%</div>'
+        f'<div class="hero"><div class="card"><div class="big {verdict}">{100 * s["accuracy_mean"]:.1f}%</div>'
         f'<div>sim-to-real accuracy <span class=sub>± {100 * s["accuracy_std"]:.1f} (std over runs)</span></div>'
+        f'<div class="sub">{judged} the majority baseline</div>'
         f'<div class="sub">best variant <b>{escape(v)}</b>: mean of {s["n_runs"]} runs, each tested on {n} real '
         f'photographs</div></div><div class="card"><div class="mid">{_pm(s["f1_mean"], s["f1_std"])}</div>'
         f'<div>F1 (%, deformed = positive)</div><div class="sub">precision {_pm(s["precision_mean"], s["precision_std"])}'

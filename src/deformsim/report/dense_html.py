@@ -14,6 +14,12 @@ def _num(x: float | None, fmt: str = ".2f") -> str:
     return "—" if x is None else format(x, fmt)
 
 
+def _defined(family: dict, key: str) -> float | None:
+    """A family's F1, precision or recall; None where undefined (F1 and recall of a family no test image has)."""
+    undefined = family.get("undefined", ("f1", "recall") if not family["n_positive"] else ())
+    return None if key in undefined else family[key]
+
+
 def _severity(head: dict, out_dir: Path) -> str:
     m = head["metrics"]
     uri = png_file_uri(out_dir / head["plot"]) if head.get("plot") else None
@@ -27,14 +33,15 @@ def _severity(head: dict, out_dir: Path) -> str:
 def _families(head: dict) -> str:
     m = head["metrics"]
     rows = "".join(
-        f"<tr><td>{escape(name)}</td><td>{_num(f['ap'])}</td><td>{_num(f['f1'])}</td><td>{_num(f['precision'])}</td>"
-        f"<td>{_num(f['recall'])}</td><td>{f['n_positive']}</td></tr>" for name, f in m["families"].items()
+        f"<tr><td>{escape(name)}</td><td>{_num(f['ap'])}</td>"
+        + "".join(f"<td>{_num(_defined(f, k))}</td>" for k in ("f1", "precision", "recall"))
+        + f"<td>{f['n_positive']}</td></tr>" for name, f in m["families"].items()
     )
-    return (f'<div class="card"><h3>Deformation families</h3><table class="t2"><tr><th>family</th><th>AP</th><th>F1</th>'
-            f"<th>Prec.</th><th>Recall</th><th>test images with it</th></tr>{rows}<tr><td><b>macro</b></td>"
+    return ('<div class="card"><h3>Deformation families</h3><div class=scroll><table class="t2"><tr><th>family</th>'
+            f"<th>AP</th><th>F1</th><th>Prec.</th><th>Recall</th><th>test images with it</th></tr>{rows}<tr><td><b>macro</b></td>"
             f"<td><b>{_num(m['macro_ap'])}</b></td><td><b>{_num(m['macro_f1'])}</b></td><td></td><td></td><td></td></tr>"
-            f'</table><div class="sub">multi-label; F1, precision and recall at probability {m["threshold"]:g}; '
-            f"macro means over the families present in the test part</div></div>")
+            f'</table></div><div class="sub">multi-label; F1, precision and recall at probability {m["threshold"]:g}; '
+            f"macro means over the families present in the test part; — : undefined</div></div>")
 
 
 def _localise(head: dict, out_dir: Path) -> str:

@@ -53,37 +53,43 @@ def _text(name: str) -> str:
     return name.replace("$", r"\$")
 
 
-def curves_png(histories: dict[str, list[dict]]) -> bytes | None:
-    """Loss and accuracy per epoch, one colour per model (dashed: validation); None without history."""
+def curves_png(histories: dict[str, list[dict] | None]) -> list[bytes]:
+    """Two figures, one colour per model: training loss per epoch, and accuracy on its validation images (the
+    training accuracy, dashed, where it held none out); each with its legend beside the plot. [] without history."""
     histories = {k: h for k, h in histories.items() if h}
     if not histories:
-        return None
+        return []
     from matplotlib.ticker import MaxNLocator
 
     plt = _pyplot()
-
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.2), dpi=110)
-    for name, hist in histories.items():
-        epochs = [h["epoch"] for h in hist]
-        color = None
-        for ax, key in zip(axes, ("loss", "acc")):
-            line = ax.plot(epochs, [h[key] for h in hist], marker="o", ms=3, color=color, label=f"{_text(name)} train")[0]
-            color = line.get_color()
-            val = [(e, h.get(f"val_{key}")) for e, h in zip(epochs, hist) if h.get(f"val_{key}") is not None]
-            if val:
-                ax.plot(*zip(*val), ls="--", marker="s", ms=3, color=color, label=f"{_text(name)} validation")
-    epochs = [h["epoch"] for hist in histories.values() for h in hist]
-    for ax, what in zip(axes, ("loss", "accuracy")):
+    no_val = any(h.get("val_acc") is None for hist in histories.values() for h in hist)
+    figures = []
+    for what in ("training loss (cross-entropy)", "validation accuracy"):
+        fig, ax = plt.subplots(figsize=(5.2, 3.0), dpi=110)
+        for i, (name, hist) in enumerate(histories.items()):
+            epochs = [h["epoch"] for h in hist]
+            style = {"marker": "o", "ms": 3, "color": f"C{i}", "label": _text(name)}
+            if what.startswith("training"):
+                ax.plot(epochs, [h["loss"] for h in hist], **style)
+            elif val := [(e, h["val_acc"]) for e, h in zip(epochs, hist) if h.get("val_acc") is not None]:
+                ax.plot(*zip(*val), **style)
+            else:
+                ax.plot(epochs, [h["acc"] for h in hist], ls="--", **style)
+        if what.startswith("validation"):
+            ax.set_ylim(0, 1.02)
+            if no_val:
+                ax.plot([], [], ls="--", color="#888", label="dashed: training accuracy\n(no validation images)")
+        epochs = [h["epoch"] for hist in histories.values() for h in hist]
         ax.set_xlim(min(epochs) - 0.5, max(epochs) + 0.5)
-        ax.set_title(what, fontsize=10)
         ax.set_xlabel("epoch")
+        ax.set_ylabel(what, fontsize=9)
         ax.grid(alpha=0.25)
         ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
         for side in ("top", "right"):
             ax.spines[side].set_visible(False)
-    axes[1].set_ylim(0, 1.02)
-    axes[1].legend(fontsize=7, frameon=False, loc="lower right")
-    return _png(fig)
+        ax.legend(fontsize=8, frameon=False, loc="upper left", bbox_to_anchor=(1.02, 1), borderaxespad=0)
+        figures.append(_png(fig))
+    return figures
 
 
 def reliability_png(diagrams: dict[str, dict]) -> bytes:

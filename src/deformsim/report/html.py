@@ -12,13 +12,14 @@ from pathlib import Path
 from deformsim.atomic import write_text
 from deformsim.dataset.images import CLASSES
 from deformsim.evaluate.calibration import reliability
-from deformsim.evaluate.experiments import review_order
 from deformsim.report.dense_html import dense_section
-from deformsim.report.figures import curves_png, data_uri, png_file_uri, reliability_png, thumbnail_uri
+from deformsim.report.figures import curves_png, data_uri, png_file_uri, reliability_png
+from deformsim.report.predictions import predictions_section, thumb
+from deformsim.report.settings import settings_section
 
 KEYS = (("accuracy", "Acc"), ("f1", "F1"), ("precision", "Prec."), ("recall", "Recall"))
 PARTS = (("split", "Synthetic test (held out)"), ("real", "Real test (sim-to-real)"))
-MAX_THUMBS = 12
+WITH_INTERVAL = ("accuracy", "f1")
 
 CSS = """
 body{font:15px/1.45 system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;color:#1d2433;background:#f4f6f9;margin:0}
@@ -30,7 +31,12 @@ h2{font-size:18px;margin:34px 0 10px;border-bottom:2px solid #dfe4ec;padding-bot
 .card{background:#fff;border-radius:10px;box-shadow:0 1px 3px #0002;padding:16px 20px}
 .hero{display:flex;gap:18px;flex-wrap:wrap;margin-top:18px}
 .hero .card{flex:1;min-width:220px}
-.big{font-size:56px;font-weight:700;line-height:1.05;color:#0b6e4f}
+.big{font-size:56px;font-weight:700;line-height:1.05;color:#5b6475}
+.big.above{color:#0b6e4f}
+.big.below{color:#b3261e}
+.ci{display:block;font-size:11px;font-weight:400;color:#5b6475}
+.scroll{overflow-x:auto;max-width:100%}
+.sub,.note,.kv td,.wrong td.name{overflow-wrap:anywhere}
 .mid{font-size:30px;font-weight:600;color:#2c4a7a}
 table.t2{border-collapse:collapse;width:100%;background:#fff;font-variant-numeric:tabular-nums}
 .t2 th,.t2 td{padding:7px 10px;text-align:center;border-bottom:1px solid #e6e9ef}
@@ -45,7 +51,7 @@ table.t2{border-collapse:collapse;width:100%;background:#fff;font-variant-numeri
 .cm th{font-weight:500;font-size:11px;color:#5b6475;padding:2px 6px}
 .cm .title{font-size:13px;font-weight:600;margin-bottom:6px}
 .plots{display:flex;flex-wrap:wrap;gap:14px}
-.plots img{background:#fff;border-radius:8px;box-shadow:0 1px 2px #0002;max-width:100%}
+.plots img{background:#fff;border-radius:8px;box-shadow:0 1px 2px #0002;width:100%;height:auto}
 .plots.two img{width:calc(50% - 7px)}
 .grid{display:flex;flex-wrap:wrap;gap:10px}
 .thumb{background:#fff;border-radius:8px;padding:6px;width:124px;box-shadow:0 1px 2px #0002;font-size:12px;
@@ -60,11 +66,45 @@ table.t2{border-collapse:collapse;width:100%;background:#fff;font-variant-numeri
 .kv td{padding:3px 14px 3px 0;border-bottom:1px solid #e6e9ef;vertical-align:top}
 .kv td:first-child{color:#5b6475}
 code{font-size:12px}
+pre.yaml{background:#fff;border-radius:8px;padding:10px 14px;font-size:12px;overflow-x:auto}
+table.wrong{border-collapse:collapse;background:#fff;font-size:13px;width:100%}
+.wrong td,.wrong th{padding:4px 8px;border-bottom:1px solid #e6e9ef;text-align:left;vertical-align:middle}
+.wrong img{width:64px;height:64px;object-fit:contain;background:#222;border-radius:4px;display:block}
+@media (max-width:640px){main{padding:16px 12px 40px}.big{font-size:44px}.plots.two img{width:100%}
+  .t2 th,.t2 td{padding:5px 6px;font-size:13px}
+  .hero .card{min-width:0;flex-basis:100%}.thumb.cam{width:calc(50% - 17px)}
+  .thumb.cam img,.thumb.cam .missing{width:100%;height:auto;aspect-ratio:1}}
 """
 
 
 def _pct(x: float | None) -> str:
     return "—" if x is None else f"{100 * x:.1f}%"
+
+
+def _value(m: dict, key: str) -> float | None:
+    """A metric, or None when it is undefined (precision with no positive prediction, ...)."""
+    return None if key in m.get("undefined", ()) else m[key]
+
+
+def _interval(m: dict, key: str) -> list[float] | None:
+    return (m.get("interval") or {}).get(key) if _value(m, key) is not None else None
+
+
+def _span(iv: list[float] | None) -> str:
+    return "" if iv is None else f"{100 * iv[0]:.1f}–{100 * iv[1]:.1f}%"
+
+
+def _baseline(m: dict) -> float:
+    return max(m["n_deformed"], m["n"] - m["n_deformed"]) / m["n"]
+
+
+def _verdict(m: dict) -> str:
+    """"above" when the accuracy's 95 % interval lies above the majority baseline, "below" when under it, else ""."""
+    iv = _interval(m, "accuracy")
+    if iv is None:
+        return ""
+    base = _baseline(m)
+    return "above" if iv[0] > base else "below" if iv[1] < base else ""
 
 
 def _shade(x: float) -> str:
@@ -97,17 +137,24 @@ def _hero(metrics: dict) -> str:
     m = r["metrics"]
     what = ("sim-to-real accuracy" if part == "real" else "accuracy on held-out synthetic images"
             + " <em>(no real test set given)</em>")
+    baseline, verdict = _baseline(m), _verdict(m)
+    iv = _interval(m, "accuracy")
+    judged = {"above": "above the majority baseline", "below": "below the majority baseline"}.get(
+        verdict, f"not distinguishable from the majority baseline ({_pct(baseline)})")
+    ci = f"95 % interval {_span(iv)} (Wilson): {judged}" if iv else ""
     cards = [
-        f'<div class="card"><div class="big">{_pct(m["accuracy"])}</div><div>{what}</div>'
+        f'<div class="card"><div class="big {verdict}">{_pct(m["accuracy"])}</div><div>{what}</div>'
+        f'<div class="sub">{ci}</div>'
         f'<div class="sub">model trained on {r["train"]["n"]} synthetic <b>{escape(v)}</b> images, '
         f'tested on {m["n"]} {"real photographs" if part == "real" else "held-out images"}</div></div>'
     ]
+    f1_iv = _interval(m, "f1")
     cards.append(
-        f'<div class="card"><div class="mid">{_pct(m["f1"])}</div><div>F1 (deformed = positive)</div>'
-        f'<div class="sub">precision {_pct(m["precision"])} · recall {_pct(m["recall"])} · '
+        f'<div class="card"><div class="mid">{_pct(_value(m, "f1"))}</div><div>F1 (deformed = positive)</div>'
+        + (f'<div class="sub">95 % interval {_span(f1_iv)} (bootstrap over the images)</div>' if f1_iv else "")
+        + f'<div class="sub">precision {_pct(_value(m, "precision"))} · recall {_pct(_value(m, "recall"))} · '
         f'threshold {m["threshold"]:g}</div></div>'
     )
-    baseline = max(m["n_deformed"], m["n"] - m["n_deformed"]) / m["n"]
     synthetic = metrics["variants"][v].get("split", {}).get("metrics") if part == "real" else None
     extra = f"<br>held-out synthetic accuracy {_pct(synthetic['accuracy'])}" if synthetic else ""
     cards.append(
@@ -117,11 +164,22 @@ def _hero(metrics: dict) -> str:
     return f'<div class="hero">{"".join(cards)}</div>'
 
 
+def _clear_best(metrics: dict) -> set[tuple[str, str, str]]:
+    """(variant, part, key) of each value whose 95 % interval lies wholly above every other variant's."""
+    out = set()
+    for part, _ in PARTS:
+        ran = [(v, r["metrics"]) for v, p, r in _results(metrics) if p == part]
+        for k in WITH_INTERVAL:
+            ivs = {v: _interval(m, k) for v, m in ran}
+            for v, iv in ivs.items():
+                others = [o for w, o in ivs.items() if w != v]
+                if iv is not None and others and all(o is not None and iv[0] > o[1] for o in others):
+                    out.add((v, part, k))
+    return out
+
+
 def _table2(metrics: dict) -> str:
-    best = {}
-    for _, part, r in _results(metrics):
-        for k, _ in KEYS:
-            best[(part, k)] = max(best.get((part, k), 0.0), r["metrics"][k])
+    best = _clear_best(metrics)
     head = "".join(f'<th colspan="4" class="grp">{title}</th>' for _, title in PARTS)
     sub = "".join(
         f'<th{" class=grp" if i == 0 else ""}>{label}</th>' for _ in PARTS for i, (_, label) in enumerate(KEYS)
@@ -136,12 +194,16 @@ def _table2(metrics: dict) -> str:
                 cells.append(f'<td colspan="4" class="grp sub" title="{escape(why)}">— {escape(why)}</td>')
                 continue
             for i, (k, _) in enumerate(KEYS):
-                x = r["metrics"][k]
-                cls = " ".join(c for c in ("grp" if i == 0 else "", "best" if x == best[(part, k)] else "") if c)
-                cells.append(f'<td class="{cls}" style="background:{_shade(x)}">{_pct(x)}</td>')
+                x = _value(r["metrics"], k)
+                cls = " ".join(c for c in ("grp" if i == 0 else "", "best" if (v, part, k) in best else "") if c)
+                shade = f' style="background:{_shade(x)}"' if x is not None else ""
+                ci = _span(_interval(r["metrics"], k))
+                cells.append(f'<td class="{cls}"{shade}>{_pct(x)}{f"<span class=ci>{ci}</span>" if ci else ""}</td>')
         rows.append(f"<tr><td><b>{escape(v)}</b><div class=sub>{e['n_images']} images</div></td>{''.join(cells)}</tr>")
-    return (f'<table class="t2"><tr><th rowspan="2">Training variant</th>{head}</tr><tr>{sub}</tr>'
-            f'{"".join(rows)}</table>')
+    return (f'<div class=scroll><table class="t2"><tr><th rowspan="2">Training variant</th>{head}</tr><tr>{sub}</tr>'
+            f'{"".join(rows)}</table></div><p class=note>Under accuracy and F1: the 95 % interval (Wilson; bootstrap '
+            "over the images). Bold: a value whose interval lies wholly above every other variant's; none is bold "
+            "where the intervals overlap. — : undefined (precision with no image predicted deformed).</p>")
 
 
 def _confusion(title: str, cm: list[list[int]]) -> str:
@@ -158,12 +220,6 @@ def _confusion(title: str, cm: list[list[int]]) -> str:
     pred = "".join(f"<th>pred. {c}</th>" for c in CLASSES)
     return (f'<div class="cm"><div class="title">{escape(title)}</div><table>'
             f"<tr><th></th>{pred}</tr>{''.join(body)}</table></div>")
-
-
-def _thumb(path: str | Path, caption: str, cls: str = "", size: int = 120, title: str | None = None) -> str:
-    uri = thumbnail_uri(path, size)
-    img = f'<img src="{uri}" alt="">' if uri else '<div class="missing">missing</div>'
-    return f'<div class="thumb {cls}" title="{escape(str(title or path))}">{img}{caption}</div>'
 
 
 def _real_results(metrics: dict) -> list[tuple[str, dict]]:
@@ -190,44 +246,18 @@ def _gradcams(metrics: dict, out_dir: Path) -> str:
         if not r.get("gradcam"):
             continue
         thr = r["metrics"]["threshold"]
-        cells = [_thumb(out_dir / g["image"], f'{CLASSES[g["y"]]} · P(deformed) {g["prob"]:.2f}'
+        cells = [thumb(out_dir / g["image"], f'{CLASSES[g["y"]]} · P(deformed) {g["prob"]:.2f}'
                         f'<div class=sub>{escape(Path(g["path"]).name)}</div>',
                         "cam " + ("bad" if (g["prob"] >= thr) != bool(g["y"]) else "ok"), 180, g["path"])
                  for g in r["gradcam"]]
-        more = len(r["predictions"]) - len(cells)
-        blocks.append(f"<h3>{escape(v)}</h3><div class=grid>{''.join(cells)}</div>"
-                      + (f'<p class="note">… and {more} more photos</p>' if more > 0 else ""))
+        blocks.append(f"<h3>{escape(v)}</h3><p class=note>{len(cells)} of the {len(r['predictions'])} photos, in "
+                      f"review order.</p><div class=grid>{''.join(cells)}</div>")
     if not blocks:
         return ""
     return ("<h2>Where the models look (Grad-CAM)</h2><p class=note>For each variant's real-test model, the "
             "regions of the photo whose features raise P(deformed) most (red and yellow; scaled per photo). A model "
             "that transfers looks at the dent, not at the background. Misclassified photos first (red top border), "
             "then the others, least confident first; captions give the true label.</p>" + "".join(blocks))
-
-
-def _predictions(metrics: dict) -> str:
-    head = _headline(metrics)
-    if head is None:
-        return ""
-    v, part, r = head
-    preds = r["predictions"]
-    thr = r["metrics"]["threshold"]
-    order = [preds[i] for i in review_order(preds, thr)]  # most confident mistakes, then least confident successes
-    wrong = [p for p in order if (p["prob"] >= thr) != bool(p["y"])]
-    right = order[len(wrong):]
-    where = "real photographs" if part == "real" else "held-out synthetic images"
-
-    def grid(items, cls):
-        if not items:
-            return '<p class="note">none</p>'
-        cells = [_thumb(p["path"], f'{CLASSES[p["y"]]}<br>P(deformed) = {p["prob"]:.2f}', cls)
-                 for p in items[:MAX_THUMBS]]
-        more = f'<p class="note">… and {len(items) - MAX_THUMBS} more</p>' if len(items) > MAX_THUMBS else ""
-        return f'<div class="grid">{"".join(cells)}</div>{more}'
-
-    return (f"<h2>Predictions on {where}</h2><p class=note>Model trained on <b>{escape(v)}</b>; captions give "
-            f"the true label and the predicted probability of <i>deformed</i> (threshold {thr:g}).</p>"
-            f"<h3>Wrong ({len(wrong)})</h3>{grid(wrong, 'bad')}<h3>Right ({len(right)})</h3>{grid(right, 'ok')}")
 
 
 def _plots(metrics: dict, out_dir: Path) -> str:
@@ -250,9 +280,7 @@ def _settings(metrics: dict) -> str:
     for v, part, r in _results(metrics):
         rows.append((f"model {v} / {part}", f"<code>{escape(r['model'])}</code> · weights <b>{escape(r['weights'])}"
                      f"</b> · train {r['train_seconds']:.1f} s · predict {r['predict_seconds']:.1f} s"))
-    rows += [(f"train.{k}", escape(str(val))) for k, val in metrics["settings"].items()]
-    body = "".join(f"<tr><td>{escape(str(k))}</td><td>{val}</td></tr>" for k, val in rows)
-    return f'<h2>Settings</h2><table class="kv">{body}</table>'
+    return settings_section(metrics, rows)
 
 
 def render_html(metrics: dict, out_dir: Path) -> str:
@@ -261,11 +289,10 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         _confusion(f"{v} · {'real' if part == 'real' else 'synthetic'} test", r["metrics"]["confusion"]["matrix"])
         for v, part, r in _results(metrics)
     )
-    curves = curves_png({f"{v} ({'all' if part == 'real' else 'split'})": r["history"]
-                         for v, part, r in _results(metrics)})
+    curves = curves_png({v: (e.get("real") or e.get("split") or {}).get("history") for v, e in metrics["variants"].items()})
     samples = "".join(
         f"<h3>{escape(v)}</h3><div class=grid>"
-        + "".join(_thumb(x["path"], CLASSES[x["y"]]) for x in e.get("examples", []))
+        + "".join(thumb(x["path"], CLASSES[x["y"]]) for x in e.get("examples", []))
         + "</div>"
         for v, e in metrics["variants"].items()
     )
@@ -287,9 +314,12 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         _gradcams(metrics, out_dir),
         dense_section(metrics, out_dir),
         _plots(metrics, out_dir),
-        f"<h2>Training curves</h2><div class=plots><img src='{data_uri(curves, 'image/png')}' alt=curves></div>"
+        "<h2>Training curves</h2><p class=note>Per variant, the model of the headline test (trained on all images "
+        "when real photos are given, else on the split): its training loss and its accuracy on the images it held "
+        "out for validation.</p><div class='plots two'>"
+        + "".join(f"<img src='{data_uri(c, 'image/png')}' alt='training curves'>" for c in curves) + "</div>"
         if curves else "",
-        _predictions(metrics),
+        predictions_section(_headline(metrics)),
         f"<h2>Synthetic samples</h2>{samples}",
         _settings(metrics),
         "</main></body></html>",

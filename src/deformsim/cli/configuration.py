@@ -1,0 +1,25 @@
+"""`deformsim config show`: every setting with its description and default, as a YAML file a user can copy."""
+
+from __future__ import annotations
+
+import typer
+
+from deformsim.cli.common import fail_cleanly
+
+
+def register(app: typer.Typer) -> None:
+    config_app = typer.Typer(no_args_is_help=True, help="See every setting of a config.")
+    app.add_typer(config_app, name="config")
+
+    @config_app.command("show")
+    @fail_cleanly
+    def show(
+        preset: str = typer.Option("quick", "--preset", "-p", help="Preset name or YAML config file to show."),
+    ) -> None:
+        """Print every setting with its value, description and default as commented YAML.
+
+        Save it as a file, edit it and pass it with --config; or set one key with --set KEY=VALUE."""
+        from deformsim.config import load_config
+        from deformsim.config_reference import commented_yaml
+
+        typer.echo(commented_yaml(load_config(preset)), nl=False)

@@ -1,0 +1,65 @@
+"""The end-of-run summary on stdout: real-photo (else held-out) metrics with their 95 % intervals, the majority
+baseline of the test set, and where the report is."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from deformsim.cli.common import console
+
+WIDE = 200  # columns of a summary printed into a file or pipe, so that no cell wraps
+
+
+def _share(value: float | None, interval: list[float] | None = None) -> str:
+    if value is None:
+        return "-"
+    text = f"{100 * value:.1f}%"
+    return f"{text} ({100 * interval[0]:.1f}-{100 * interval[1]:.1f})" if interval else text
+
+
+def metric_cell(m: dict, key: str) -> str:
+    """Metric ``key`` of ``m`` (from compute_metrics) as a percentage with its 95 % interval, "-" when undefined."""
+    if key in m.get("undefined", ()):
+        return "-"
+    return _share(m[key], (m.get("interval") or {}).get(key))
+
+
+def print_table(table: Table, report: Path | None = None) -> None:
+    """Print ``table`` on stdout (unwrapped in a file or pipe), then where the report is."""
+    (console if console.is_terminal else Console(width=WIDE)).print(table)
+    if report is not None:
+        console.print(f"[bold]report:[/] {report}", highlight=False, soft_wrap=True)
+
+
+def report_summary(report: Path) -> None:
+    """Print the summary of the report at ``report`` (its report.html; metrics.json beside it)."""
+    metrics = json.loads((report.parent / "metrics.json").read_text(encoding="utf-8"))
+    table = Table(title="Results (95 % intervals)", header_style="bold")
+    for col in ("trained on", "tested on", "images", "accuracy", "F1", "precision", "recall", "majority class"):
+        table.add_column(col, justify="left" if col in ("trained on", "tested on") else "right")
+    for variant, entry in metrics["variants"].items():
+        for part, name in (("real", "real photos"), ("split", "held-out renders")):
+            result = entry.get(part) or {}
+            if "metrics" not in result:
+                continue
+            m, test = result["metrics"], result["test"]
+            share = test["n_deformed"] / test["n"] if test["n"] else None
+            table.add_row(variant, name, str(m["n"]), *(metric_cell(m, k) for k in ("accuracy", "f1", "precision", "recall")),
+                          _share(None if share is None else max(share, 1 - share)))
+    print_table(table, report)
+
+
+def sim2real_summary(results: dict, report: Path) -> None:
+    """Print the sim-to-real benchmark's ``results`` (mean ± std over its runs) and where its report is."""
+    table = Table(title=f"Real-photo results over {len(results['runs'])} runs (mean ± std)", header_style="bold")
+    for col in ("trained on", "runs", "accuracy", "F1", "precision", "recall", "synthetic accuracy", "majority class"):
+        table.add_column(col, justify="left" if col == "trained on" else "right")
+    for variant, r in results["variants"].items():
+        cells = [f"{100 * r[f'{k}_mean']:.1f} ± {100 * r[f'{k}_std']:.1f}%"
+                 for k in ("accuracy", "f1", "precision", "recall", "synthetic_accuracy")]
+        table.add_row(variant, str(r["n_runs"]), *cells, _share(results["majority_baseline"]))
+    print_table(table, report)

@@ -1,0 +1,63 @@
+"""The report's lists of photos: thumbnails with captions, and the headline model's predictions, each photo linked
+to its full-size file."""
+
+from __future__ import annotations
+
+from html import escape
+from pathlib import Path
+
+from deformsim.dataset.images import CLASSES
+from deformsim.evaluate.experiments import review_order
+from deformsim.report.figures import thumbnail_uri
+
+MAX_THUMBS = 12  # right predictions shown, least confident first
+
+
+def thumb(path: str | Path, caption: str, cls: str = "", size: int = 120, title: str | None = None) -> str:
+    """A card with the image at ``path`` (longest side ``size``) and ``caption`` (HTML); its tooltip ``title``."""
+    uri = thumbnail_uri(path, size)
+    img = f'<img src="{uri}" alt="">' if uri else '<div class="missing">missing</div>'
+    return f'<div class="thumb {cls}" title="{escape(str(title or path))}">{img}{caption}</div>'
+
+
+def photo_link(path: str) -> str:
+    """A link to the full-size image at ``path`` (a ``file:`` URI, escaped)."""
+    return escape(Path(path).resolve().as_uri())
+
+
+def _wrong_table(wrong: list[dict]) -> str:
+    """Every wrong prediction: thumbnail and file name, each a link to the full-size image, label, P(deformed)."""
+    if not wrong:
+        return '<p class="note">none</p>'
+    rows = []
+    for p in wrong:
+        uri = thumbnail_uri(p["path"], 64)
+        img = f'<img src="{uri}" alt="">' if uri else '<div class="missing" style="width:64px;height:64px">?</div>'
+        link = photo_link(p["path"])
+        rows.append(f'<tr><td><a href="{link}">{img}</a></td><td class=name><a href="{link}">{escape(Path(p["path"]).name)}</a>'
+                    f'</td><td>{CLASSES[p["y"]]}</td><td>{p["prob"]:.3f}</td></tr>')
+    return ('<div class=scroll><table class="wrong"><tr><th>photo</th><th>file (full size)</th><th>true label</th>'
+            f'<th>P(deformed)</th></tr>{"".join(rows)}</table></div>')
+
+
+def predictions_section(head: tuple[str, str, dict] | None) -> str:
+    """The predictions of the headline model ``(variant, part, result)``: every wrong one in a table, then the least
+    confident right ones; "" without one."""
+    if head is None:
+        return ""
+    v, part, r = head
+    preds = r["predictions"]
+    thr = r["metrics"]["threshold"]
+    order = [preds[i] for i in review_order(preds, thr)]  # most confident mistakes, then least confident successes
+    wrong = [p for p in order if (p["prob"] >= thr) != bool(p["y"])]
+    right = order[len(wrong):]
+    where = "real photographs" if part == "real" else "held-out synthetic images"
+    shown = right[:MAX_THUMBS]
+    cells = "".join(thumb(p["path"], f'{CLASSES[p["y"]]}<br>P(deformed) = {p["prob"]:.2f}'
+                           f'<div class=sub><a href="{photo_link(p["path"])}">{escape(Path(p["path"]).name)}</a></div>',
+                           "ok") for p in shown)
+    title = f"Right ({len(right)})" + (f": the {len(shown)} least confident" if len(shown) < len(right) else "")
+    return (f"<h2>Predictions on {where}</h2><p class=note>Model trained on <b>{escape(v)}</b>; the true label and "
+            f"the predicted probability of <i>deformed</i> (threshold {thr:g}); each file name links to the full-size "
+            f"image.</p><h3>Wrong ({len(wrong)}), most confident first</h3>{_wrong_table(wrong)}<h3>{title}</h3>"
+            + (f'<div class="grid">{cells}</div>' if cells else '<p class="note">none</p>'))

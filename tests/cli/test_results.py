@@ -1,0 +1,85 @@
+"""Results on stdout: the end-of-run summary of `run`, `report` and `bench sim2real`, and piped `predict` lines."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from deformsim.api import Engine, Prediction
+from deformsim.cli.app import app
+from deformsim.evaluate.metrics import compute_metrics
+from deformsim.pipeline import RunResult
+
+
+def invoke(*args):
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def write_report(folder):
+    """A report folder whose black model got 7 of 10 real photos right and whose procedural one predicted none
+    deformed (precision undefined)."""
+    y = np.array([0] * 6 + [1] * 4)
+    good = compute_metrics(y, np.array([0.1] * 5 + [0.9] + [0.9] * 2 + [0.1] * 2))
+    none = compute_metrics(y, np.full(10, 0.1))
+    test = {"n": 10, "n_deformed": 4}
+    folder.mkdir(parents=True)
+    (folder / "metrics.json").write_text(json.dumps({"variants": {
+        "black": {"real": {"metrics": good, "test": test}, "split": {"skipped": "too few samples"}},
+        "procedural": {"real": {"metrics": none, "test": test}},
+    }}))
+    (folder / "report.html").write_text("<html></html>")
+    return folder / "report.html"
+
+
+def test_a_runs_stdout_ends_with_the_summary_table(monkeypatch, tmp_path):
+    report = write_report(tmp_path / "run" / "report")
+    monkeypatch.setattr(Engine, "run", lambda self, out, real, **kw: RunResult(
+        tmp_path / "run", tmp_path / "run" / "data", report, {"train": 2.0}))
+    res = invoke("run", "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    lines = res.stdout.strip().splitlines()
+    assert lines[-1] == f"report: {report}"  # whole, however long the path
+    table = "\n".join(lines[lines.index(next(line for line in lines if "Results" in line)):])
+    for heading in ("trained on", "tested on", "accuracy", "F1", "precision", "recall", "majority class"):
+        assert heading in table
+    black = next(line for line in lines if "black" in line)
+    assert "real photos" in black and "70.0% (39.7-89.2)" in black and "60.0%" in black  # Wilson 95 %, baseline
+    procedural = next(line for line in lines if "procedural" in line)
+    assert "60.0% (31.3-83.2)" in procedural and " - " in procedural  # undefined precision shows as "-"
+
+
+def test_report_prints_the_summary(monkeypatch, tmp_path):
+    report = write_report(tmp_path / "report")
+    monkeypatch.setattr(Engine, "report", lambda self, data, out, real, overwrite: report)
+    res = invoke("report", tmp_path / "data", "--out", tmp_path / "report")
+    assert res.exit_code == 0, res.output
+    assert "70.0% (39.7-89.2)" in res.stdout and res.stdout.strip().endswith(f"report: {report}")
+
+
+def test_sim2real_prints_the_summary(monkeypatch, tmp_path):
+    row = {"n_runs": 2, **{f"{k}_{s}": 0.5 for k in ("accuracy", "f1", "precision", "recall", "synthetic_accuracy")
+                           for s in ("mean", "std")}}
+    results = {"runs": [{}, {}], "seconds": 3.0, "variants": {"black": row}, "majority_baseline": 0.62}
+    monkeypatch.setattr(Engine, "sim2real", lambda self, *a, **kw: results)
+    res = invoke("bench", "sim2real", "--real", tmp_path, "--out", tmp_path / "b")
+    assert res.exit_code == 0, res.output
+    black = next(line for line in res.stdout.splitlines() if "black" in line)
+    assert "50.0 ± 50.0%" in black and "62.0%" in black
+    assert res.stdout.strip().endswith(f"report: {tmp_path / 'b' / 'report.html'}")
+
+
+@pytest.fixture
+def long_paths(monkeypatch, tmp_path):
+    paths = [tmp_path / ("x" * 150) / f"photo_{i}.png" for i in range(2)]
+    monkeypatch.setattr(Engine, "predict", lambda self, model, images, csv: Prediction(
+        paths, {"p_deformed": [0.25, 0.75], "label": ["intact", "deformed"]}, ("P(deformed)", "label")))
+    return paths
+
+
+def test_piped_predict_prints_whole_paths(long_paths, tmp_path):
+    res = invoke("predict", tmp_path / "model", tmp_path)
+    assert res.exit_code == 0, res.output
+    assert res.stdout.splitlines() == [f"{long_paths[0]}\t0.2500\tintact", f"{long_paths[1]}\t0.7500\tdeformed"]
