@@ -41,10 +41,10 @@ LONGEST_LINE = 290
 def error(message: str) -> None:
     """Print ``error: MESSAGE`` (rich markup, escaped by the caller) on one line of at most :data:`LONGEST_LINE`
     characters: a huge path or value in it is cut in the middle, the line at its end."""
+    from deformsim.schema import clip
+
     words = [w if len(w) <= LONGEST_WORD else f"{w[:45]}...{w[-52:]}" for w in message.split()]
-    line = " ".join(words)
-    if len(line) > LONGEST_LINE:
-        line = line[: LONGEST_LINE - 3] + "..."
+    line = clip(" ".join(words), LONGEST_LINE)
     err_console.print(f"[bold red]error:[/] {line}", highlight=False, soft_wrap=True, markup=True)
 
 
