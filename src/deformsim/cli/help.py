@@ -42,7 +42,9 @@ def _name_values(params: list) -> list:
     return params
 
 
-class Command(TyperCommand):
+class _Worded:
+    """Help as sentences and options shown by name, for a command or a group."""
+
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self.help = _joined(self.help)
@@ -50,17 +52,14 @@ class Command(TyperCommand):
     def get_params(self, ctx):
         return _name_values(super().get_params(ctx))
 
+
+class Command(_Worded, TyperCommand):
     def collect_usage_pieces(self, ctx) -> list[str]:
         return [re.sub(r"\{(\w+)\}", r"\1", p) for p in super().collect_usage_pieces(ctx)]
 
 
-class Group(TyperGroup):
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        self.help = _joined(self.help)
-
-    def get_params(self, ctx):
-        return _name_values(super().get_params(ctx))
+class Group(_Worded, TyperGroup):
+    pass
 
 
 def use_words(app: typer.Typer) -> None:
