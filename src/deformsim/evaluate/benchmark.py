@@ -87,6 +87,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     from deformsim.generate.identity import data_name
     from deformsim.generate.stage import generate, prepare
     from deformsim.identity import digest
+    from deformsim.learn.finetune import check_unseen
     from deformsim.learn.predict import load
     from deformsim.learn.train import fit
     from deformsim.report.benchmark import write_benchmark_report
@@ -129,6 +130,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
                         shutil.rmtree(model_dir)  # the benchmark's own output: retrained from scratch
                     fit(train_df, train_cfg, model_dir, progress=progress, adapt=adapt)
                     predictor = load(model_dir)
+                    check_unseen(model_dir, real_df["path"])
                     synth = compute_metrics(test_df["y"].to_numpy(), predictor.predict_proba(list(test_df["path"])),
                                             train_cfg.threshold)
                     prob = predictor.predict_proba(list(real_df["path"]))

@@ -74,8 +74,10 @@ def _rel(path: Path, root: Path) -> str:
 
 def _train_and_test(train_df, test_df, cfg: TrainConfig, model_dir: Path, out_dir: Path, progress: bool) -> dict:
     from deformsim.learn import predict, train
+    from deformsim.learn.finetune import check_unseen
 
     result = train.fit(train_df, cfg, model_dir, progress=progress)
+    check_unseen(result.model_path, test_df["path"])
     t0 = time.perf_counter()
     prob = predict.load(result.model_path).predict_proba(list(test_df["path"]))
     predict_seconds = time.perf_counter() - t0
@@ -269,6 +271,7 @@ def evaluate_model(
     Returns ``{"model", "test", "n_images", "held_out", "metrics", "predictions"}``.
     """
     from deformsim.learn import predict
+    from deformsim.learn.finetune import check_unseen
 
     if (real_dir is None) == (data_root is None):
         raise UserError("give either a real folder or a dataset and a variant to evaluate on")
@@ -286,6 +289,7 @@ def evaluate_model(
         if split_file.is_file():
             table = table[table["id"].isin(json.loads(split_file.read_text())["test"])].reset_index(drop=True)
             held_out = True
+    check_unseen(predictor.path, table["path"])
     prob = predictor.predict_proba(list(table["path"]))
     threshold = predictor.cfg.threshold if threshold is None else threshold
     return {

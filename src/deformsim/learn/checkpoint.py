@@ -6,6 +6,7 @@ A model of another ``train.target`` than ``label`` also records ``outputs``: the
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import torch
@@ -19,16 +20,20 @@ from deformsim.learn.models import DeformNet, build
 from deformsim.schema import clip, first_error, shown
 
 MODEL_FILE = "model.pt"
+_SHA256 = re.compile("[0-9a-f]{64}")
 MAX_OUTPUTS = 1024  # what a model of train.target family may predict: one output per deformation family
 
 
 def save(path: Path, model: DeformNet, cfg: TrainConfig, weights: str, history: list[dict], split: dict,
-         outputs: list[str] | None = None) -> None:
-    """Write ``path`` atomically; ``split`` holds the ``train`` and ``val`` image ids."""
+         outputs: list[str] | None = None, adapted_on: list[str] | None = None) -> None:
+    """Write ``path`` atomically; ``split`` holds the ``train`` and ``val`` image ids, ``adapted_on`` the sha256 of
+    each real photo a fine-tuned model was adapted on (:mod:`deformsim.learn.finetune`)."""
     ckpt = {"state_dict": {k: v.cpu() for k, v in model.state_dict().items()}, "config": cfg.model_dump(mode="json"),
             "weights": weights, "classes": list(CLASSES), "history": history, "split": split}
     if outputs is not None:
         ckpt["outputs"] = list(outputs)
+    if adapted_on is not None:
+        ckpt["adapted_on"] = list(adapted_on)
     write(path, ckpt)
 
 
@@ -64,6 +69,9 @@ def read_checkpoint(model_path: str | Path) -> tuple[dict, Path]:
     if outputs is not None and not (isinstance(outputs, list) and 0 < len(outputs) <= MAX_OUTPUTS
                                     and all(isinstance(o, str) for o in outputs)):
         raise UserError(f"{path} is not a deformsim model: its outputs are not 1 to {MAX_OUTPUTS} names")
+    adapted_on = ckpt.get("adapted_on", [])
+    if not (isinstance(adapted_on, list) and all(isinstance(d, str) and _SHA256.fullmatch(d) for d in adapted_on)):
+        raise UserError(f"{path} is not a deformsim model: its adapted_on is not a list of sha256 digests")
     classes = ckpt.get("classes", list(CLASSES))
     if not (isinstance(classes, list) and len(classes) == 2 and all(isinstance(c, str) for c in classes)):
         raise UserError(f"{path} is not a deformsim model: its classes are not two names")
