@@ -24,6 +24,7 @@ from deformsim.config import Config, apply_overrides, load_config, validate_conf
 
 if TYPE_CHECKING:
     from deformsim.evaluate.benchmark import Plan
+    from deformsim.learn.finetune import Recipe
     from deformsim.spec.model import Spec
 
 
@@ -122,6 +123,18 @@ class Engine:
 
         return train_model(Path(data), self.config.train, Path(out), variant, overwrite=overwrite,
                            progress=self.progress, adapt=_path(adapt))
+
+    def finetune(self, model: str | Path, real: str | Path, out: str | Path, data: str | Path | None = None,
+                 variant: str | None = None, recipe: Recipe | None = None, overwrite: bool = False):
+        """Adapt a trained model with labelled real photos (intact/ and deformed/), mixed with a dataset variant's
+        synthetic images when ``data`` is given; a :class:`deformsim.learn.finetune.Finetuned`. The model refuses to
+        be scored on those photos afterwards. A model of other settings or inputs in ``out`` is refused unless
+        ``overwrite``."""
+        from deformsim.learn.finetune import Recipe, finetune
+
+        self._check_real(real)
+        return finetune(Path(model), Path(real), Path(out), recipe or Recipe(), _path(data), variant,
+                        overwrite=overwrite, progress=self.progress)
 
     def predict(self, model: str | Path, images: Sequence[str | Path], csv: str | Path | None = None) -> Prediction:
         """P(deformed) and the label of each image (files, or folders searched recursively), or what a model of
@@ -223,6 +236,19 @@ class Engine:
 
         return run_benchmark(self.config, Path(out), Path(real), plan or Plan(), adapt=_path(adapt),
                              datasets=_path(datasets), progress=self.progress)
+
+    def fewshot(self, real: str | Path, model: str | Path, out: str | Path, ks: Sequence[int] = (0, 1, 2, 5, 10, 20),
+                draws: int = 5, seeds: int = 2, recipe: Recipe | None = None,
+                curves: Sequence[str] = ("synthetic", "imagenet"), data: str | Path | None = None,
+                variant: str | None = None) -> dict:
+        """The few-shot benchmark: ``model`` adapted on k labelled photos per class of ``real`` and scored on the
+        others, beside the ImageNet backbone trained on them alone; its results (also in ``out/fewshot.json``, the
+        curves in ``out/fewshot.png``)."""
+        from deformsim.evaluate.fewshot import run_fewshot
+
+        self._check_real(real)
+        return run_fewshot(Path(real), Path(model), Path(out), tuple(ks), draws, seeds, recipe, tuple(curves),
+                           _path(data), variant, progress=self.progress)
 
     def _check_real(self, real: str | Path | None) -> None:
         """Check a folder of labelled real photos and say what it holds, per class and subfolder."""

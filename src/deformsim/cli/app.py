@@ -4,7 +4,20 @@ from __future__ import annotations
 
 import typer
 
-from deformsim.cli import bake, bench, composite, configuration, evaluate, export, generate, learn, pipeline, show, spec
+from deformsim.cli import (
+    bake,
+    bench,
+    composite,
+    configuration,
+    evaluate,
+    export,
+    finetune,
+    generate,
+    learn,
+    pipeline,
+    show,
+    spec,
+)
 from deformsim.cli.common import fail_cleanly
 from deformsim.cli.help import use_words
 from deformsim.errors import UserError
@@ -35,6 +48,6 @@ def main(
     set_verbosity("quiet" if quiet else "verbose" if verbose else "normal")
 
 
-for module in (generate, bake, composite, export, learn, evaluate, spec, show, pipeline, bench, configuration):
+for module in (generate, bake, composite, export, learn, finetune, evaluate, spec, show, pipeline, bench, configuration):
     module.register(app)
 use_words(app)

@@ -49,3 +49,43 @@ def register(app: typer.Typer) -> None:
         console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'results.json'}",
                       highlight=False, soft_wrap=True)
         sim2real_summary(results, out / "report.html")
+
+    bench_app.command("fewshot")(fail_cleanly(fewshot))
+
+
+def fewshot(
+    real: Path = typer.Option(..., "--real", help="labelled real photos (intact/ and deformed/): adapted on k per "
+                              "class, scored on the others"),
+    model: Path = typer.Option(..., "--model", help="trained model folder (from deformsim train) or its model.pt"),
+    out: Path = typer.Option(Path("runs/fewshot"), "--out", "-o", help="folder for fewshot.json and fewshot.png"),
+    k: str = typer.Option("0,1,2,5,10,20", "--k", help="comma-separated photos per class to adapt on (capped to "
+                          "leave one of each class to score)"),
+    draws: int = typer.Option(5, "--draws", help="draws of the k photos per k"),
+    seeds: int = typer.Option(2, "--seeds", help="training seeds per draw"),
+    part: str = typer.Option("head", "--part", help="what trains: head (on cached features, fast), or tail (the "
+                             "backbone layers train trained, and the head)"),
+    steps: int = typer.Option(100, "--steps", help="optimiser steps per adaptation"),
+    lr: float = typer.Option(1e-4, "--lr", help="learning rate of the synthetic model's adaptation (the ImageNet "
+                             "curve trains its new head at the model's train.lr)"),
+    views: int = typer.Option(4, "--views", help="augmented views of each photo, beside its plain image"),
+    curves: str = typer.Option("synthetic,imagenet", "--curves", help="comma-separated curves: synthetic (the "
+                               "model adapted), imagenet (ImageNet weights, trained on the k photos alone)"),
+    data: Optional[Path] = typer.Option(None, "--data", help="generated dataset whose images are mixed into the "
+                                        "synthetic model's batches (with --variant)"),
+    variant: Optional[str] = typer.Option(None, "--variant", help="image variant of --data"),
+    progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
+) -> None:
+    """Adapt a model on k labelled real photos per class, score it on the remaining photos; print accuracy and F1
+    per k (mean and 95 % interval over draws and seeds) beside the ImageNet backbone trained on the same photos."""
+    from deformsim.cli.common import err_console, note, plain_engine
+    from deformsim.cli.summary import fewshot_summary
+    from deformsim.evaluate.fewshot import parse_ks
+    from deformsim.learn.finetune import Recipe
+
+    recipe = Recipe(part=part, steps=steps, lr=lr, views=views)
+    engine = plain_engine(progress, notify=note(err_console))
+    results = engine.fewshot(real, model, out, parse_ks(k), draws, seeds, recipe,
+                             [c.strip() for c in curves.split(",") if c.strip()], data, variant)
+    console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'fewshot.json'}",
+                  highlight=False, soft_wrap=True)
+    fewshot_summary(results, out / "fewshot.png")

@@ -1,0 +1,246 @@
+"""The few-shot benchmark (``deformsim bench fewshot``): real-photo scores after adapting on k photos per class.
+
+For each k, ``draws`` draws (a numpy Generator seeded by k and the draw) of k photos of each class from one
+labelled folder; for each draw and each of ``seeds`` training seeds, a model adapts on those photos and is scored
+on the remaining photos of the folder: never one of the k, nor a copy of one (photos are told apart by content;
+asserted). Two curves, on the same draws:
+
+- ``synthetic``: the trained model, adapted (:func:`deformsim.learn.finetune.adapt`) at the recipe's small
+  learning rate, with the synthetic images of ``data`` mixed in when given; k = 0 is the model as it is.
+- ``imagenet``: the same backbone with ImageNet weights only (a fresh ``build`` of the model's config, its
+  feature BatchNorm off as nothing would estimate it), trained on the k photos alone at the training learning
+  rate; k = 0 is the majority baseline.
+
+Every photo's stem activations come from the feature cache; its augmented views (image-level, computed once per
+photo and shared by all draws) and, with ``part="head"`` (the default), their pooled features are computed once
+per model, so a run trains the head alone in well under a second on a CPU. Per k and curve: mean accuracy and F1
+over the runs with a 95 % percentile-bootstrap interval of that mean (one run at k = 0: the interval over the
+photos, Wilson's and a bootstrap's). This is the only place where real labels train anything, and only inside
+this cross-validation.
+"""
+
+from __future__ import annotations
+
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from deformsim.atomic import write_bytes, write_json
+from deformsim.errors import UserError
+from deformsim.log import get_logger
+
+log = get_logger(__name__)
+
+KS = (0, 1, 2, 5, 10, 20)
+CURVES = ("synthetic", "imagenet")
+TITLES = {"synthetic": "synthetic-pretrained, adapted", "imagenet": "ImageNet only, trained on the k photos"}
+BOOTSTRAP = 2000
+
+
+def parse_ks(text: str) -> list[int]:
+    """``"0,1,2,5"`` as sorted distinct ints of at least 0; one line naming the bad value otherwise."""
+    try:
+        ks = sorted({int(v) for v in text.split(",") if v.strip()})
+    except ValueError:
+        raise UserError(f"--k {text!r}: expected comma-separated whole numbers, e.g. 0,1,2,5") from None
+    if not ks or ks[0] < 0:
+        raise UserError(f"--k {text!r}: expected photos per class of at least 0")
+    return ks
+
+
+def mean_interval(values: list[float], seed: int = 0) -> tuple[float, list[float]]:
+    """The mean of ``values`` and a 95 % percentile-bootstrap interval of it (seeded)."""
+    a = np.asarray(values, dtype=float)
+    means = a[np.random.default_rng(seed).integers(0, a.size, (BOOTSTRAP, a.size))].mean(axis=1)
+    return float(a.mean()), [float(v) for v in np.percentile(means, [2.5, 97.5])]
+
+
+def draw(y: np.ndarray, k: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of k photos of each class (to adapt on) and the remaining rows (to score)."""
+    chosen = np.sort(np.concatenate([rng.choice(np.flatnonzero(y == c), size=k, replace=False) for c in (0, 1)]))
+    rest = np.setdiff1d(np.arange(len(y)), chosen)
+    return chosen.astype(int), rest
+
+
+def _table(real: Path):
+    """The folder's photos, one per content (a copy could otherwise land on both sides of a draw)."""
+    from deformsim.dataset.real import real_table
+    from deformsim.identity import file_digest
+
+    table = real_table(real)
+    table["digest"] = [file_digest(p) for p in table["path"]]
+    unique = table.drop_duplicates("digest").reset_index(drop=True)
+    if len(unique) < len(table):
+        log.warning("%s: %d photos are copies of others and count once", real, len(table) - len(unique))
+    return unique
+
+
+def _summary(runs: list[dict], ks: list[int], curve: str, seed: int) -> list[dict]:
+    rows = []
+    for k in ks:
+        mine = [r for r in runs if r["curve"] == curve and r["k"] == k]
+        if not mine:
+            continue
+        row = {"k": k, "runs": len(mine), "interval": "runs" if len(mine) > 1 else "photos"}
+        for key in ("accuracy", "f1"):
+            if len(mine) > 1:
+                row[key], row[f"{key}_interval"] = mean_interval([r[key] for r in mine], seed)
+            else:
+                row[key], row[f"{key}_interval"] = mine[0][key], mine[0]["interval"][key]
+        rows.append(row)
+    return rows
+
+
+def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, draws: int = 5, seeds: int = 2,
+                recipe=None, curves: tuple[str, ...] = CURVES, data: Path | None = None, variant: str | None = None,
+                progress: bool = True) -> dict:
+    """Both curves (or those in ``curves``) on the labelled photos of ``real`` for the trained ``model``; written
+    to ``out/fewshot.json`` and ``out/fewshot.png``. Every input is checked before any work."""
+    import torch
+
+    from deformsim.dataset.tables import load_table
+    from deformsim.evaluate.metrics import compute_metrics
+    from deformsim.learn import checkpoint
+    from deformsim.learn.device import pick_device, set_threads
+    from deformsim.learn.finetune import Recipe, adapt, check_unseen, part_inputs, part_logits, photo_views
+    from deformsim.learn.models import build
+    from deformsim.outputs import check_apart, check_folder_target, check_outside
+    from deformsim.report.figures import fewshot_png
+
+    start = time.perf_counter()
+    recipe = recipe or Recipe(part="head")
+    bad = [c for c in curves if c not in CURVES]
+    if bad or not curves:
+        raise UserError(f"--curves: expected some of {', '.join(CURVES)}, got {', '.join(bad) or 'none'}")
+    for name, value in (("--draws", draws), ("--seeds", seeds)):
+        if not 1 <= value <= 1000:
+            raise UserError(f"{name} must lie in [1, 1000], got {value}")
+    out = check_folder_target(out, "--out")
+    check_apart(out, "--out", {"model": model, "real photos": real, "synthetic data": data})
+    check_outside(out, "--out", {"real photos": real})
+    ckpt, path = checkpoint.read_checkpoint(model)
+    cfg = checkpoint.saved_config(ckpt, path)
+    if cfg.target != "label" or getattr(cfg, "ensemble", 1) > 1:
+        raise UserError(f"{path} is no single label classifier (train.target {cfg.target}, or an ensemble): the "
+                        "few-shot benchmark needs one")
+    table = _table(real)
+    check_unseen(path, table["path"])
+    y = table["y"].to_numpy()
+    cap = int(min((y == 0).sum(), (y == 1).sum())) - 1  # at least one photo of each class left to score
+    if cap < 1:
+        raise UserError(f"{real} needs at least 2 photos of each class (one to adapt on, one to score)")
+    ks = sorted(set(ks))
+    capped = [k for k in ks if k > cap]
+    ks = sorted({min(k, cap) for k in ks})
+    if capped:
+        log.warning("%s allows at most %d photos per class to adapt on: k %s counted as %d", real, cap,
+                    ", ".join(map(str, capped)), cap)
+    if variant is not None and data is None:
+        raise UserError(f"--variant {variant} needs --data (the synthetic images to mix in)")
+    synthetic = load_table(data, variant, cfg.variants[0]) if data is not None else None
+
+    set_threads()
+    device = pick_device(cfg.device)
+    trained, _ = checkpoint.restore(ckpt, path)
+    fresh_cfg = cfg.model_copy(update={"feature_norm": False})
+    fresh, weights = build(fresh_cfg)
+    models = {"synthetic": trained.to(device), "imagenet": fresh.to(device)}
+    models = {c: models[c] for c in CURVES if c in curves}
+    paths = list(table["path"])
+    views = photo_views(trained, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress)
+    inputs = {c: part_inputs(m, views, recipe.part, cfg.batch_size) for c, m in models.items()}
+    starts = {c: {k: v.clone() for k, v in m.state_dict().items()} for c, m in models.items()}
+    mix = None
+    if synthetic is not None and "synthetic" in models:
+        from deformsim.learn.features import cached_stem
+
+        stems = cached_stem(trained, list(synthetic["path"]), cfg.image_size, cfg.batch_size, progress)
+        mix = (part_inputs(trained, stems, recipe.part, cfg.batch_size), torch.tensor(synthetic["y"].to_numpy()))
+    labels = torch.tensor(y)
+    lrs = {"synthetic": recipe.lr, "imagenet": cfg.lr}
+
+    def score(curve: str, rows: np.ndarray) -> dict:
+        net, x = models[curve].eval(), inputs[curve][0, torch.as_tensor(rows, dtype=torch.long)]  # plain views
+        with torch.no_grad():
+            logits = torch.cat([part_logits(net, b.to(device), recipe.part) for b in x.split(cfg.batch_size)])
+        return compute_metrics(y[rows], torch.sigmoid(logits).cpu().double().numpy(), cfg.threshold)
+
+    runs: list[dict] = []
+    total = sum(draws * seeds * len(models) if k else int("synthetic" in models) for k in ks)
+    for k in ks:
+        for d in range(draws if k else 1):
+            chosen, rest = draw(y, k, np.random.default_rng([k, d]))
+            assert set(table["digest"].iloc[chosen]).isdisjoint(table["digest"].iloc[rest])
+            assert set(table["path"].iloc[chosen]).isdisjoint(table["path"].iloc[rest]) and len(rest)
+            rows = torch.as_tensor(chosen, dtype=torch.long)
+            for curve in models if k else [c for c in models if c == "synthetic"]:
+                for s in range(seeds if k else 1):
+                    net = models[curve]
+                    net.load_state_dict(starts[curve])
+                    if k:
+                        run_recipe = Recipe(part=recipe.part, steps=recipe.steps, lr=lrs[curve],
+                                            batch_size=recipe.batch_size, views=recipe.views, seed=s)
+                        if curve == "imagenet":
+                            _reset_head(net, s)
+                        adapt(net, inputs[curve][:, rows], labels[rows], run_recipe,
+                              mix if curve == "synthetic" else None)
+                    m = score(curve, rest)
+                    runs.append({"curve": curve, "k": k, "draw": d, "seed": s, "adapted_on": list(table["id"].iloc[chosen]),
+                                 "n_test": int(len(rest)), "accuracy": m["accuracy"], "f1": m["f1"],
+                                 "interval": m["interval"]})
+                    log.info("run %d/%d: %s, k %d, draw %d, seed %d: accuracy %.3f, F1 %.3f on %d photos",
+                             len(runs), total, curve, k, d, s, m["accuracy"], m["f1"], len(rest))
+    share = float(y.mean())
+    results = {
+        "kind": "fewshot",
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "real_dir": str(Path(real).resolve()), "model": str(path), "backbone": cfg.backbone, "weights": weights,
+        "photos": {"intact": int((y == 0).sum()), "deformed": int((y == 1).sum())},
+        "majority_baseline": max(share, 1 - share),
+        "ks": ks, "capped": capped, "draws": draws, "seeds": seeds,
+        "recipe": {"part": recipe.part, "steps": recipe.steps, "batch_size": recipe.batch_size,
+                   "views": recipe.views, "lr": lrs},
+        "data": None if data is None else str(data), "variant": variant,
+        "curves": {c: _summary(runs, ks, c, 0) for c in models},
+        "runs": runs,
+        "seconds": time.perf_counter() - start,
+    }
+    write_json(out / "fewshot.json", results)
+    write_bytes(out / "fewshot.png", fewshot_png(results))
+    return results
+
+
+def _reset_head(net, seed: int) -> None:
+    """A new head, initialised from torch's RNG seeded by ``seed`` (the caller's RNG left as it was)."""
+    import torch
+
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seed)
+        for layer in net.head.modules():
+            if hasattr(layer, "reset_parameters"):
+                layer.reset_parameters()
+
+
+def read_results(path: str | Path) -> dict:
+    """A ``fewshot.json`` checked as the report shows it; one line naming the file otherwise."""
+    import json
+
+    try:
+        results = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise UserError(f"--fewshot {path}: no such file (run deformsim bench fewshot)") from None
+    except (OSError, ValueError) as exc:
+        raise UserError(f"--fewshot {path}: not a JSON file ({exc})") from None
+    keys = ("k", "runs", "accuracy", "f1", "accuracy_interval", "f1_interval")
+    try:
+        ok = results["kind"] == "fewshot" and isinstance(results["majority_baseline"], float) and all(
+            c in CURVES and all(isinstance(row[key], (int, float, list)) for row in rows for key in keys)
+            and all(len(row[f"{m}_interval"]) == 2 for row in rows for m in ("accuracy", "f1"))
+            for c, rows in results["curves"].items())
+    except (KeyError, TypeError):
+        ok = False
+    if not ok:
+        raise UserError(f"--fewshot {path} is not a deformsim few-shot result (bench fewshot's fewshot.json)")
+    return results
