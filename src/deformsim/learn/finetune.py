@@ -105,7 +105,8 @@ def part_inputs(model: DeformNet, stems: torch.Tensor, part: str, batch_size: in
     return pooled.view(*stems.shape[:-3], -1)
 
 
-def _logits(model: DeformNet, x: torch.Tensor, part: str) -> torch.Tensor:
+def part_logits(model: DeformNet, x: torch.Tensor, part: str) -> torch.Tensor:
+    """Logits of P(deformed) from what the training ``part`` reads (:func:`part_inputs`)."""
     return model.tail(x) if part == "tail" else model.head(model.norm(x)).squeeze(1)
 
 
@@ -132,7 +133,7 @@ def adapt(model: DeformNet, photos: torch.Tensor, y: torch.Tensor, recipe: Recip
             if synthetic is not None:
                 more = torch.randperm(len(synthetic[1]), generator=order)[: recipe.batch_size]
                 x, target = torch.cat([x, synthetic[0][more]]), torch.cat([target, synthetic[1][more].float()])
-            loss = nn.functional.binary_cross_entropy_with_logits(_logits(model, x.to(device), recipe.part),
+            loss = nn.functional.binary_cross_entropy_with_logits(part_logits(model, x.to(device), recipe.part),
                                                                   target.to(device))
             opt.zero_grad()
             loss.backward()
