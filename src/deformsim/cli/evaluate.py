@@ -67,6 +67,8 @@ def register(app: typer.Typer) -> None:
         weights: Optional[str] = typer.Option(None, help=from_config("Backbone weights: imagenet, offline or none",
                                                                      "train.weights")),
         overwrite: bool = typer.Option(False, "--overwrite", help="replace a report in --out made with other settings"),
+        fewshot: Optional[Path] = typer.Option(None, "--fewshot", help="a bench fewshot fewshot.json whose curves "
+                                               "the report shows"),
         set_: list[str] = set_option(),
         progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
     ) -> None:
@@ -78,4 +80,4 @@ def register(app: typer.Typer) -> None:
         engine = ConfigArgs(config, {"--variants": ("train.variants", names), "--epochs": ("train.epochs", epochs),
                                      "--weights": ("train.weights", weights)},
                             sets=set_).engine(progress, note(err_console))
-        report_summary(engine.report(data, out, real, overwrite=overwrite))
+        report_summary(engine.report(data, out, real, overwrite=overwrite, fewshot=fewshot))

@@ -73,7 +73,7 @@ def _table(real: Path):
     table["digest"] = [file_digest(p) for p in table["path"]]
     unique = table.drop_duplicates("digest").reset_index(drop=True)
     if len(unique) < len(table):
-        log.warning("%s: %d photos are copies of others and count once", real, len(table) - len(unique))
+        log.warning("%s: photos that copy others count once (%d copies)", real, len(table) - len(unique))
     return unique
 
 
@@ -151,7 +151,8 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
     paths = list(table["path"])
     views = photo_views(trained, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress)
     inputs = {c: part_inputs(m, views, recipe.part, cfg.batch_size) for c, m in models.items()}
-    starts = {c: {k: v.clone() for k, v in m.state_dict().items()} for c, m in models.items()}
+    trains = {c: m.head if recipe.part == "head" else m for c, m in models.items()}  # reset before each run
+    starts = {c: {k: v.clone() for k, v in m.state_dict().items()} for c, m in trains.items()}
     mix = None
     if synthetic is not None and "synthetic" in models:
         from deformsim.learn.features import cached_stem
@@ -178,7 +179,7 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
             for curve in models if k else [c for c in models if c == "synthetic"]:
                 for s in range(seeds if k else 1):
                     net = models[curve]
-                    net.load_state_dict(starts[curve])
+                    trains[curve].load_state_dict(starts[curve])
                     if k:
                         run_recipe = Recipe(part=recipe.part, steps=recipe.steps, lr=lrs[curve],
                                             batch_size=recipe.batch_size, views=recipe.views, seed=s)

@@ -13,6 +13,7 @@ from deformsim.atomic import write_text
 from deformsim.dataset.images import CLASSES
 from deformsim.evaluate.calibration import reliability
 from deformsim.report.dense_html import dense_section
+from deformsim.report.fewshot_html import fewshot_section
 from deformsim.report.figures import curves_png, data_uri, png_file_uri, reliability_png
 from deformsim.report.predictions import predictions_section, thumb
 from deformsim.report.settings import settings_section
@@ -311,6 +312,7 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         _table2(metrics),
         f"<h2>Confusion matrices</h2><div class=cms>{cms}</div>" if cms else "",
         _calibration(metrics),
+        fewshot_section(metrics.get("fewshot")),
         _gradcams(metrics, out_dir),
         dense_section(metrics, out_dir),
         _plots(metrics, out_dir),

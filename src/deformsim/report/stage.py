@@ -9,8 +9,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from deformsim.atomic import write_json
 from deformsim.config import TrainConfig
-from deformsim.identity import files_digest
+from deformsim.identity import file_digest, files_digest
 from deformsim.outputs import check_apart, check_folder_target, check_outside, claim, replacing
 
 
@@ -22,9 +23,10 @@ def real_digest(real: Path | None) -> str | None:
 
 
 def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = None, overwrite: bool = False,
-                progress: bool = True) -> Path:
+                progress: bool = True, fewshot: Path | None = None) -> Path:
     """Train and test every variant of dataset ``data`` with settings ``cfg`` (on ``real`` photos too) into the
-    folder ``out``; the path of its report.html.
+    folder ``out``; the path of its report.html, showing the curves of ``fewshot`` (``bench fewshot``'s
+    fewshot.json) when given.
 
     Refused with one line when ``out`` is a file, holds anything but a report (even with ``overwrite``), is or holds
     ``data`` or ``real`` or lies inside ``real``, or holds a report made with other settings or inputs (unless
@@ -37,15 +39,24 @@ def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = Non
     from deformsim.report.html import write_report
 
     out = check_folder_target(out, "--out")
-    check_apart(out, "--out", {"dataset": data, "real photos": real})
+    check_apart(out, "--out", {"dataset": data, "real photos": real, "few-shot results": fewshot})
     check_outside(out, "--out", {"real photos": real})  # its plots would be read as photos
     read_manifest(data)  # a clear error when ``data`` is not a dataset
     layout = Layout(data)
     manifests = [layout.manifest, *sorted((layout.root / "variants").glob(f"*/{VARIANT_MANIFEST}"))]
     identity = {"settings": cfg.model_dump(mode="json"), "inputs": {"data": files_digest(manifests, data),
                                                                     "real": real_digest(real)}}
+    shots = None
+    if fewshot is not None:
+        from deformsim.evaluate.fewshot import read_results
+
+        shots = read_results(fewshot)
+        identity["inputs"]["fewshot"] = file_digest(fewshot)
     claim(out, "report", identity, overwrite)
     with replacing(out, identity, "report") as tmp:
         metrics = run_experiments(data, cfg, tmp, real_dir=real, progress=progress)
+        if shots is not None:
+            metrics["fewshot"] = shots
+            write_json(tmp / "metrics.json", metrics)
         write_report(metrics, tmp)
     return out / "report.html"

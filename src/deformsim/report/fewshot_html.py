@@ -1,0 +1,41 @@
+"""The report's few-shot section: ``bench fewshot``'s curves (:mod:`deformsim.evaluate.fewshot`) as a table and a plot."""
+
+from __future__ import annotations
+
+from html import escape
+
+from deformsim.evaluate.fewshot import CURVES, TITLES
+from deformsim.report.figures import data_uri, fewshot_png
+
+
+def _cell(row: dict | None, key: str) -> str:
+    if row is None:
+        return "<td>—</td>"
+    lo, hi = row[f"{key}_interval"]
+    return f"<td>{100 * row[key]:.1f}%<span class=ci>{100 * lo:.1f}–{100 * hi:.1f}%</span></td>"
+
+
+def fewshot_section(results: dict | None) -> str:
+    """The section, or "" without results."""
+    if not results:
+        return ""
+    curves = [c for c in CURVES if c in results["curves"]]
+    by_k = {c: {r["k"]: r for r in results["curves"][c]} for c in curves}
+    ks = sorted({k for rows in by_k.values() for k in rows})
+    head = "".join(f'<th colspan="2" class="grp">{escape(TITLES[c])}</th>' for c in curves)
+    sub = "".join("<th class=grp>Acc</th><th>F1</th>" for _ in curves)
+    rows = "".join(f"<tr><td><b>{k}</b></td>{''.join(_cell(by_k[c].get(k), m) for c in curves for m in ('accuracy', 'f1'))}"
+                   "</tr>" for k in ks)
+    photos = results["photos"]
+    return (
+        "<h2>Few-shot adaptation with real photos</h2><p class=note>"
+        f"k labelled photos of each class drawn from <code>{escape(str(results['real_dir']))}</code> "
+        f"({photos['intact']} intact, {photos['deformed']} deformed); the model <code>{escape(str(results['model']))}"
+        "</code> adapted on them, and the same backbone with ImageNet weights only trained on them alone; both "
+        f"scored on the remaining photos, over {results['draws']} draws × {results['seeds']} seeds per k. Mean and "
+        "95 % interval of the mean over those runs (k = 0: the model as it is, the interval over the photos). "
+        f"Majority baseline {100 * results['majority_baseline']:.1f}%.</p>"
+        f'<div class=scroll><table class="t2"><tr><th rowspan="2">k per class</th>{head}</tr><tr>{sub}</tr>{rows}'
+        f"</table></div><div class=plots><img src='{data_uri(fewshot_png(results), 'image/png')}' "
+        "alt='few-shot curves'></div>"
+    )

@@ -1,0 +1,97 @@
+"""The few-shot benchmark: a draw never puts a photo on both sides, runs score only the photos they did not adapt
+on, an adapted model is refused, and the report shows the curves escaped."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from deformsim.errors import UserError
+from deformsim.evaluate.fewshot import draw, parse_ks, read_results, run_fewshot
+from deformsim.report.fewshot_html import fewshot_section
+from tests.learn.blobs import make_blobs
+
+QUICK = {"part": "head", "steps": 10, "lr": 1e-3, "views": 1}
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_draw_never_puts_a_photo_in_both_the_adaptation_and_the_scored_set(seed):
+    y = np.array([0] * 5 + [1] * 8)
+    np.random.default_rng(seed).shuffle(y)
+    for k in range(5):
+        chosen, rest = draw(y, k, np.random.default_rng([k, seed]))
+        assert not set(chosen) & set(rest) and sorted([*chosen, *rest]) == list(range(len(y)))
+        assert (y[chosen] == 0).sum() == (y[chosen] == 1).sum() == k
+        assert {0, 1} <= set(y[rest])
+
+
+def test_k_values_are_read_as_distinct_whole_numbers():
+    assert parse_ks("0, 2,1,2") == [0, 1, 2]
+    for bad in ("x", "-1", ""):
+        with pytest.raises(UserError, match="--k"):
+            parse_ks(bad)
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    """A tiny trained model, and labelled photos (6 + 6, one of them also under another name)."""
+    from deformsim.config import TrainConfig
+    from deformsim.learn.train import fit
+
+    root = tmp_path_factory.mktemp("fewshot")
+    mp = pytest.MonkeyPatch()
+    mp.setenv("DEFORMSIM_CACHE", str(root / "cache"))
+    model = fit(make_blobs(root / "syn", 20), TrainConfig(weights="offline", image_size=32, epochs=1, batch_size=16),
+                root / "model", progress=False).model_path
+    photos = make_blobs(root / "real", 6, seed=11)
+    shutil.copy(photos["path"].iloc[0], root / "real" / "intact" / "copy.png")
+    yield model, root / "real"
+    mp.undo()
+
+
+@pytest.mark.torch
+def test_each_run_scores_the_photos_it_did_not_adapt_on(tiny, tmp_path):
+    from deformsim.learn.finetune import Recipe
+
+    model, real = tiny
+    results = run_fewshot(real, model, tmp_path / "out", (0, 1, 2, 9), draws=2, seeds=1, recipe=Recipe(**QUICK),
+                          progress=False)
+    assert results["ks"] == [0, 1, 2, 5] and results["capped"] == [9]  # the copy counts once: 6 + 6 photos
+    for run in results["runs"]:
+        assert run["n_test"] == 12 - 2 * run["k"] and len(run["adapted_on"]) == 2 * run["k"]
+    assert [r["k"] for r in results["curves"]["synthetic"]] == [0, 1, 2, 5]
+    assert [r["k"] for r in results["curves"]["imagenet"]] == [1, 2, 5]
+    assert results["curves"]["synthetic"][0]["interval"] == "photos"
+    for row in results["curves"]["imagenet"]:
+        assert row["runs"] == 2 and row["accuracy_interval"][0] <= row["accuracy"] <= row["accuracy_interval"][1]
+    assert read_results(tmp_path / "out" / "fewshot.json")["kind"] == "fewshot"
+    assert (tmp_path / "out" / "fewshot.png").read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.torch
+def test_a_model_adapted_on_the_folder_is_refused(tiny, tmp_path):
+    from deformsim.learn.finetune import Recipe, finetune
+
+    model, real = tiny
+    adapted = finetune(model, real, tmp_path / "ft", Recipe(**QUICK), progress=False).model_path
+    with pytest.raises(UserError, match="fine-tuned on 12 of these images"):
+        run_fewshot(real, adapted, tmp_path / "out", (0, 1), draws=1, seeds=1, recipe=Recipe(**QUICK), progress=False)
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_report_section_escapes_names_and_a_foreign_file_is_refused(tmp_path):
+    row = {"k": 1, "runs": 2, "interval": "runs", "accuracy": 0.7, "f1": 0.6, "accuracy_interval": [0.6, 0.8],
+           "f1_interval": [0.5, 0.7]}
+    results = {"kind": "fewshot", "real_dir": "<script>x</script>", "model": "m&m", "majority_baseline": 0.5,
+               "photos": {"intact": 3, "deformed": 3}, "draws": 2, "seeds": 1,
+               "curves": {"synthetic": [row], "imagenet": [row]}}
+    html = fewshot_section(results)
+    assert "&lt;script&gt;" in html and "<script>" not in html and "m&amp;m" in html and "70.0%" in html
+    (tmp_path / "f.json").write_text(json.dumps(results))
+    assert read_results(tmp_path / "f.json")["model"] == "m&m"
+    (tmp_path / "g.json").write_text(json.dumps({**results, "kind": "sim2real"}))
+    with pytest.raises(UserError, match="is not a deformsim few-shot result"):
+        read_results(tmp_path / "g.json")

@@ -1,0 +1,105 @@
+"""Fine-tuning with labelled real photos: predictions move toward their labels, and the adapted model refuses to be
+scored on any of them (by content), while a folder it cannot adapt on fails with one line before any work."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+import torch
+from typer.testing import CliRunner
+
+from deformsim.cli.app import app
+from deformsim.config import TrainConfig
+from deformsim.errors import UserError
+from deformsim.evaluate.experiments import evaluate_model
+from deformsim.identity import file_digest
+from deformsim.learn.checkpoint import read_checkpoint
+from deformsim.learn.finetune import Recipe, finetune
+from deformsim.learn.predict import load
+from deformsim.learn.train import fit
+from tests.learn.blobs import make_blobs
+
+pytestmark = pytest.mark.torch
+
+TINY = TrainConfig(weights="offline", image_size=32, epochs=1, batch_size=16)
+FAST = Recipe(part="head", steps=60, lr=1e-3, views=1)
+
+
+@pytest.fixture(scope="module")
+def trained(blobs, tmp_path_factory):
+    return fit(blobs, TINY, tmp_path_factory.mktemp("model") / "m", progress=False).model_path
+
+
+@pytest.fixture(scope="module")
+def photos(tmp_path_factory):
+    """Labelled 'real' photos: other blobs (another seed)."""
+    root = tmp_path_factory.mktemp("photos") / "real"
+    return root, make_blobs(root, 6, seed=11)
+
+
+def _gap(model, table) -> float:
+    """Mean distance of P(deformed) from the label."""
+    return float(np.abs(load(model).predict_proba(list(table["path"])) - table["y"].to_numpy()).mean())
+
+
+def test_finetune_moves_predictions_toward_the_labels_of_its_photos(trained, photos, tmp_path):
+    root, table = photos
+    result = finetune(trained, root, tmp_path / "ft", FAST, progress=False)
+    assert _gap(result.model_path, table) < _gap(trained, table) - 0.05
+    assert result.photos == 12 and result.loss[1] < result.loss[0]
+    ckpt, _ = read_checkpoint(result.model_path)
+    assert ckpt["adapted_on"] == sorted(file_digest(p) for p in table["path"])
+
+
+def test_finetune_of_the_tail_with_synthetic_images_mixed_in(trained, photos, blobs, tmp_path):
+    root, table = photos
+    result = finetune(trained, root, tmp_path / "ft", Recipe(steps=3, views=1), data=blobs["path"].iloc[0].rsplit(
+        "/", 2)[0], progress=False)
+    before, after = (read_checkpoint(m)[0]["state_dict"] for m in (trained, result.model_path))
+    changed = {k.split(".")[0] for k in before if not torch.equal(before[k], after[k])}
+    assert changed == {"features", "head"} and result.synthetic == len(blobs)
+
+
+def test_an_adapted_model_refuses_to_be_scored_on_its_photos_even_renamed(trained, photos, tmp_path):
+    root, table = photos
+    model = finetune(trained, root, tmp_path / "ft", FAST, progress=False).model_path
+    with pytest.raises(UserError, match="fine-tuned on 12 of these images"):
+        evaluate_model(model, real_dir=root)
+    other = make_blobs(tmp_path / "other", 3, seed=12)
+    assert evaluate_model(model, real_dir=tmp_path / "other")["n_images"] == len(other)
+    shutil.copy(table["path"].iloc[0], tmp_path / "other" / "intact" / "renamed.png")
+    res = CliRunner().invoke(app, ["evaluate", str(model), "--real", str(tmp_path / "other")])
+    assert res.exit_code == 2
+    errors = [line for line in res.output.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and "fine-tuned on 1 of these images" in errors[0] and "renamed.png" in errors[0]
+
+
+@pytest.mark.parametrize("case", ["missing", "empty", "one class", "no images"])
+def test_finetune_refuses_a_folder_it_cannot_adapt_on_before_any_work(case, trained, tmp_path):
+    real = tmp_path / "real"
+    if case != "missing":
+        real.mkdir()
+    if case == "one class":
+        make_blobs(tmp_path / "one", 2)
+        shutil.copytree(tmp_path / "one" / "intact", real / "intact")
+    if case == "no images":
+        (real / "intact").mkdir()
+        (real / "deformed").mkdir()
+    with pytest.raises(UserError, match=str(real)) as err:
+        finetune(trained, real, tmp_path / "out", FAST, progress=False)
+    assert "\n" not in str(err.value) and not (tmp_path / "out").exists()
+
+
+def test_finetune_keeps_its_inputs_apart_from_its_output(trained, photos):
+    with pytest.raises(UserError, match="is the model|contains the model"):
+        finetune(trained, photos[0], trained.parent, FAST, progress=False)
+
+
+def test_a_model_with_a_bad_adapted_on_list_is_refused(trained, tmp_path):
+    ckpt = torch.load(trained, weights_only=True)
+    ckpt["adapted_on"] = ["not a digest"]
+    torch.save(ckpt, tmp_path / "model.pt")
+    with pytest.raises(UserError, match="adapted_on"):
+        read_checkpoint(tmp_path / "model.pt")
