@@ -53,7 +53,7 @@ def test_a_runs_stdout_ends_with_the_summary_table(monkeypatch, tmp_path):
 
 def test_report_prints_the_summary(monkeypatch, tmp_path):
     report = write_report(tmp_path / "report")
-    monkeypatch.setattr(Engine, "report", lambda self, data, out, real, overwrite: report)
+    monkeypatch.setattr(Engine, "report", lambda self, data, out, real, overwrite, fewshot=None: report)
     res = invoke("report", tmp_path / "data", "--out", tmp_path / "report")
     assert res.exit_code == 0, res.output
     assert "70.0% (39.7-89.2)" in res.stdout and res.stdout.strip().endswith(f"report: {report}")
