@@ -209,7 +209,7 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
         "seconds": time.perf_counter() - start,
     }
     write_json(out / "fewshot.json", results)
-    write_bytes(out / "fewshot.png", fewshot_png(results))
+    write_bytes(out / "fewshot.png", fewshot_png(results, TITLES))
     return results
 
 

@@ -36,6 +36,6 @@ def fewshot_section(results: dict | None) -> str:
         "95 % interval of the mean over those runs (k = 0: the model as it is, the interval over the photos). "
         f"Majority baseline {100 * results['majority_baseline']:.1f}%.</p>"
         f'<div class=scroll><table class="t2"><tr><th rowspan="2">k per class</th>{head}</tr><tr>{sub}</tr>{rows}'
-        f"</table></div><div class=plots><img src='{data_uri(fewshot_png(results), 'image/png')}' "
+        f"</table></div><div class=plots><img src='{data_uri(fewshot_png(results, TITLES), 'image/png')}' "
         "alt='few-shot curves'></div>"
     )

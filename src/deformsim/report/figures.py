@@ -149,11 +149,9 @@ def error_bars_png(groups: list[str], series: dict[str, list[tuple[float, float,
     return _png(fig)
 
 
-def fewshot_png(results: dict) -> bytes:
+def fewshot_png(results: dict, titles: dict[str, str]) -> bytes:
     """Accuracy and F1 against the photos per class adapted on (``bench fewshot``'s results): one line per curve
-    with its 95 % interval as a band, and the majority baseline (dashed) under accuracy."""
-    from deformsim.evaluate.fewshot import TITLES
-
+    (named by ``titles``) with its 95 % interval as a band, and the majority baseline (dashed) under accuracy."""
     plt = _pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(9.6, 3.4), dpi=110)
     for ax, key, label in zip(axes, ("accuracy", "f1"), ("accuracy", "F1 (deformed = positive)")):
@@ -161,7 +159,7 @@ def fewshot_png(results: dict) -> bytes:
             k = [r["k"] for r in rows]
             lo, hi = zip(*(r[f"{key}_interval"] for r in rows)) if rows else ((), ())
             ax.fill_between(k, lo, hi, color=f"C{i}", alpha=0.18, lw=0)
-            ax.plot(k, [r[key] for r in rows], "o-", ms=3.5, color=f"C{i}", label=_text(TITLES.get(curve, curve)))
+            ax.plot(k, [r[key] for r in rows], "o-", ms=3.5, color=f"C{i}", label=_text(titles.get(curve, curve)))
         if key == "accuracy":
             ax.axhline(results["majority_baseline"], ls="--", lw=1, color="#888", label="majority baseline")
         ax.set(ylim=(0, 1.02), xlabel="labelled real photos per class adapted on (k)")
