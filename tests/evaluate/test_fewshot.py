@@ -65,6 +65,7 @@ def test_each_run_scores_the_photos_it_did_not_adapt_on(tiny, tmp_path):
     assert [r["k"] for r in results["curves"]["synthetic"]] == [0, 1, 2, 5]
     assert [r["k"] for r in results["curves"]["imagenet"]] == [1, 2, 5]
     assert results["curves"]["synthetic"][0]["interval"] == "photos"
+    assert [r["majority"] for r in results["curves"]["synthetic"]] == [0.5] * 4
     for row in results["curves"]["imagenet"]:
         assert row["runs"] == 2 and row["accuracy_interval"][0] <= row["accuracy"] <= row["accuracy_interval"][1]
     assert read_results(tmp_path / "out" / "fewshot.json")["kind"] == "fewshot"
@@ -84,7 +85,7 @@ def test_a_model_adapted_on_the_folder_is_refused(tiny, tmp_path):
 
 def test_the_report_section_escapes_names_and_a_foreign_file_is_refused(tmp_path):
     row = {"k": 1, "runs": 2, "interval": "runs", "accuracy": 0.7, "f1": 0.6, "accuracy_interval": [0.6, 0.8],
-           "f1_interval": [0.5, 0.7]}
+           "f1_interval": [0.5, 0.7], "majority": 0.5}
     results = {"kind": "fewshot", "real_dir": "<script>x</script>", "model": "m&m", "majority_baseline": 0.5,
                "photos": {"intact": 3, "deformed": 3}, "draws": 2, "seeds": 1,
                "curves": {"synthetic": [row], "imagenet": [row]}}

@@ -71,13 +71,12 @@ def fewshot_summary(results: dict, plot: Path) -> None:
 
     table = Table(title="Real-photo results after adapting on k photos per class (mean, 95 % interval)",
                   header_style="bold")
-    for col in ("k per class", "model", "runs", "accuracy", "F1", "interval over"):
+    for col in ("k per class", "model", "runs", "accuracy", "F1", "interval over", "majority class"):
         table.add_column(col, justify="left" if col == "model" else "right")
     rows = {(r["k"], curve): r for curve, curve_rows in results["curves"].items() for r in curve_rows}
     for k, curve in sorted(rows, key=lambda key: (key[0], CURVES.index(key[1]))):
         r = rows[k, curve]
         table.add_row(str(k), TITLES[curve], str(r["runs"]), _share(r["accuracy"], r["accuracy_interval"]),
-                      _share(r["f1"], r["f1_interval"]), r["interval"])
-    table.caption = f"majority class: {_share(results['majority_baseline'])}"
+                      _share(r["f1"], r["f1_interval"]), r["interval"], _share(r["majority"]))
     print_table(table, None)
     console.print(f"[bold]plot:[/] {plot}", highlight=False, soft_wrap=True)

@@ -9,7 +9,8 @@ asserted). Two curves, on the same draws:
   learning rate, with the synthetic images of ``data`` mixed in when given; k = 0 is the model as it is.
 - ``imagenet``: the same backbone with ImageNet weights only (a fresh ``build`` of the model's config, its
   feature BatchNorm off as nothing would estimate it), trained on the k photos alone at the training learning
-  rate; k = 0 is the majority baseline.
+  rate; k = 0 is the majority baseline. As k grows, the photos left to score grow more unbalanced: each k
+  records the majority-class share of its scored photos.
 
 Every photo's stem activations come from the feature cache; its augmented views (image-level, computed once per
 photo and shared by all draws) and, with ``part="head"`` (the default), their pooled features are computed once
@@ -77,13 +78,17 @@ def _table(real: Path):
     return unique
 
 
-def _summary(runs: list[dict], ks: list[int], curve: str, seed: int) -> list[dict]:
+def _summary(runs: list[dict], ks: list[int], curve: str, y: np.ndarray, seed: int) -> list[dict]:
+    """Per k: the runs' mean accuracy and F1 with their intervals, and the majority-class share of the photos
+    scored (the draw leaves the classes of the rest as unbalanced as the folder, or more)."""
     rows = []
     for k in ks:
         mine = [r for r in runs if r["curve"] == curve and r["k"] == k]
         if not mine:
             continue
-        row = {"k": k, "runs": len(mine), "interval": "runs" if len(mine) > 1 else "photos"}
+        left = np.array([(y == 0).sum(), (y == 1).sum()]) - k
+        row = {"k": k, "runs": len(mine), "interval": "runs" if len(mine) > 1 else "photos",
+               "majority": float(left.max() / left.sum())}
         for key in ("accuracy", "f1"):
             if len(mine) > 1:
                 row[key], row[f"{key}_interval"] = mean_interval([r[key] for r in mine], seed)
@@ -204,7 +209,7 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
         "recipe": {"part": recipe.part, "steps": recipe.steps, "batch_size": recipe.batch_size,
                    "views": recipe.views, "lr": lrs},
         "data": None if data is None else str(data), "variant": variant,
-        "curves": {c: _summary(runs, ks, c, 0) for c in models},
+        "curves": {c: _summary(runs, ks, c, y, 0) for c in models},
         "runs": runs,
         "seconds": time.perf_counter() - start,
     }
@@ -234,7 +239,7 @@ def read_results(path: str | Path) -> dict:
         raise UserError(f"--fewshot {path}: no such file (run deformsim bench fewshot)") from None
     except (OSError, ValueError) as exc:
         raise UserError(f"--fewshot {path}: not a JSON file ({exc})") from None
-    keys = ("k", "runs", "accuracy", "f1", "accuracy_interval", "f1_interval")
+    keys = ("k", "runs", "accuracy", "f1", "accuracy_interval", "f1_interval", "majority")
     try:
         ok = results["kind"] == "fewshot" and isinstance(results["majority_baseline"], float) and all(
             c in CURVES and all(isinstance(row[key], (int, float, list)) for row in rows for key in keys)

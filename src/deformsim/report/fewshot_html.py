@@ -24,8 +24,9 @@ def fewshot_section(results: dict | None) -> str:
     ks = sorted({k for rows in by_k.values() for k in rows})
     head = "".join(f'<th colspan="2" class="grp">{escape(TITLES[c])}</th>' for c in curves)
     sub = "".join("<th class=grp>Acc</th><th>F1</th>" for _ in curves)
+    majority = {r["k"]: r["majority"] for rows in results["curves"].values() for r in rows}
     rows = "".join(f"<tr><td><b>{k}</b></td>{''.join(_cell(by_k[c].get(k), m) for c in curves for m in ('accuracy', 'f1'))}"
-                   "</tr>" for k in ks)
+                   f"<td class=grp>{100 * majority[k]:.1f}%</td></tr>" for k in ks)
     photos = results["photos"]
     return (
         "<h2>Few-shot adaptation with real photos</h2><p class=note>"
@@ -34,8 +35,9 @@ def fewshot_section(results: dict | None) -> str:
         "</code> adapted on them, and the same backbone with ImageNet weights only trained on them alone; both "
         f"scored on the remaining photos, over {results['draws']} draws × {results['seeds']} seeds per k. Mean and "
         "95 % interval of the mean over those runs (k = 0: the model as it is, the interval over the photos). "
-        f"Majority baseline {100 * results['majority_baseline']:.1f}%.</p>"
-        f'<div class=scroll><table class="t2"><tr><th rowspan="2">k per class</th>{head}</tr><tr>{sub}</tr>{rows}'
+        "Majority class: the share of the commoner label among the photos scored at that k.</p>"
+        f'<div class=scroll><table class="t2"><tr><th rowspan="2">k per class</th>{head}'
+        f'<th rowspan="2" class="grp">majority class</th></tr><tr>{sub}</tr>{rows}'
         f"</table></div><div class=plots><img src='{data_uri(fewshot_png(results, TITLES), 'image/png')}' "
         "alt='few-shot curves'></div>"
     )

@@ -151,7 +151,8 @@ def error_bars_png(groups: list[str], series: dict[str, list[tuple[float, float,
 
 def fewshot_png(results: dict, titles: dict[str, str]) -> bytes:
     """Accuracy and F1 against the photos per class adapted on (``bench fewshot``'s results): one line per curve
-    (named by ``titles``) with its 95 % interval as a band, and the majority baseline (dashed) under accuracy."""
+    (named by ``titles``) with its 95 % interval as a band, and under accuracy the majority-class share of the
+    photos scored at each k (dashed)."""
     plt = _pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(9.6, 3.4), dpi=110)
     for ax, key, label in zip(axes, ("accuracy", "f1"), ("accuracy", "F1 (deformed = positive)")):
@@ -161,7 +162,9 @@ def fewshot_png(results: dict, titles: dict[str, str]) -> bytes:
             ax.fill_between(k, lo, hi, color=f"C{i}", alpha=0.18, lw=0)
             ax.plot(k, [r[key] for r in rows], "o-", ms=3.5, color=f"C{i}", label=_text(titles.get(curve, curve)))
         if key == "accuracy":
-            ax.axhline(results["majority_baseline"], ls="--", lw=1, color="#888", label="majority baseline")
+            rows = min(results["curves"].values(), key=lambda rows: -len(rows))  # the one with most k
+            ax.plot([r["k"] for r in rows], [r["majority"] for r in rows], ls="--", lw=1, color="#888",
+                    label="majority class of the photos scored")
         ax.set(ylim=(0, 1.02), xlabel="labelled real photos per class adapted on (k)")
         ax.set_ylabel(label, fontsize=9)
         ax.set_xticks(sorted({r["k"] for rows in results["curves"].values() for r in rows}))
