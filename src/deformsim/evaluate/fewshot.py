@@ -25,12 +25,16 @@ from __future__ import annotations
 import time
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from deformsim.atomic import write_bytes, write_json
 from deformsim.errors import UserError
 from deformsim.log import get_logger
+
+if TYPE_CHECKING:
+    from deformsim.learn.finetune import Recipe
 
 log = get_logger(__name__)
 
@@ -99,8 +103,8 @@ def _summary(runs: list[dict], ks: list[int], curve: str, y: np.ndarray, seed: i
 
 
 def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, draws: int = 5, seeds: int = 2,
-                recipe=None, curves: tuple[str, ...] = CURVES, data: Path | None = None, variant: str | None = None,
-                progress: bool = True) -> dict:
+                recipe: Recipe | None = None, curves: tuple[str, ...] = CURVES, data: Path | None = None,
+                variant: str | None = None, progress: bool = True) -> dict:
     """Both curves (or those in ``curves``) on the labelled photos of ``real`` for the trained ``model``; written
     to ``out/fewshot.json`` and ``out/fewshot.png``. Every input is checked before any work."""
     import torch
@@ -149,10 +153,12 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
     set_threads()
     device = pick_device(cfg.device)
     trained, _ = checkpoint.restore(ckpt, path)
-    fresh_cfg = cfg.model_copy(update={"feature_norm": False})
-    fresh, weights = build(fresh_cfg)
-    models = {"synthetic": trained.to(device), "imagenet": fresh.to(device)}
-    models = {c: models[c] for c in CURVES if c in curves}
+    models, weights = {}, {}
+    if "synthetic" in curves:
+        models["synthetic"], weights["synthetic"] = trained.to(device), ckpt.get("weights", "")
+    if "imagenet" in curves:
+        fresh, weights["imagenet"] = build(cfg.model_copy(update={"feature_norm": False}))
+        models["imagenet"] = fresh.to(device)
     paths = list(table["path"])
     views = photo_views(trained, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress)
     inputs = {c: part_inputs(m, views, recipe.part, cfg.batch_size) for c, m in models.items()}
