@@ -14,10 +14,10 @@ asserted). Two curves, on the same draws:
 
 Every photo's stem activations come from the feature cache; its augmented views (image-level, computed once per
 photo and shared by all draws) and, with ``part="head"`` (the default), their pooled features are computed once
-per model, so a run trains the head alone in well under a second on a CPU. Per k and curve: mean accuracy and F1
-over the runs with a 95 % percentile-bootstrap interval of that mean (one run at k = 0: the interval over the
-photos, Wilson's and a bootstrap's). This is the only place where real labels train anything, and only inside
-this cross-validation.
+per model, so a run trains the head alone in about a second on a CPU. Per k and curve: mean accuracy and F1
+over the runs with a 95 % percentile-bootstrap interval of that mean over the draws, each draw the mean of its
+seeds (one run at k = 0: the interval over the photos, Wilson's and a bootstrap's). This is the only place where
+real labels train anything, and only inside this cross-validation.
 """
 
 from __future__ import annotations
@@ -83,21 +83,26 @@ def _table(real: Path):
 
 
 def _summary(runs: list[dict], ks: list[int], curve: str, y: np.ndarray, seed: int) -> list[dict]:
-    """Per k: the runs' mean accuracy and F1 with their intervals, and the majority-class share of the photos
-    scored (the draw leaves the classes of the rest as unbalanced as the folder, or more)."""
+    """Per k: the runs' mean accuracy and F1 with their 95 % intervals, resampling the draws (each the mean of its
+    seeds; the seeds with a single draw, the photos with a single run), and the majority-class share of the photos
+    scored (the draw leaves the rest as unbalanced as the folder, or more)."""
     rows = []
     for k in ks:
         mine = [r for r in runs if r["curve"] == curve and r["k"] == k]
         if not mine:
             continue
+        by_draw: dict[int, list[dict]] = {}
+        for r in mine:
+            by_draw.setdefault(r["draw"], []).append(r)
         left = np.array([(y == 0).sum(), (y == 1).sum()]) - k
-        row = {"k": k, "runs": len(mine), "interval": "runs" if len(mine) > 1 else "photos",
-               "majority": float(left.max() / left.sum())}
+        over = "photos" if len(mine) == 1 else "draws" if len(by_draw) > 1 else "seeds"
+        row = {"k": k, "runs": len(mine), "interval": over, "majority": float(left.max() / left.sum())}
         for key in ("accuracy", "f1"):
-            if len(mine) > 1:
-                row[key], row[f"{key}_interval"] = mean_interval([r[key] for r in mine], seed)
-            else:
+            if over == "photos":
                 row[key], row[f"{key}_interval"] = mine[0][key], mine[0]["interval"][key]
+                continue
+            units = [[r[key] for r in rs] for rs in by_draw.values()] if over == "draws" else [[r[key]] for r in mine]
+            row[key], row[f"{key}_interval"] = mean_interval([float(np.mean(u)) for u in units], seed)
         rows.append(row)
     return rows
 

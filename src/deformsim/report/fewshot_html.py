@@ -34,7 +34,7 @@ def fewshot_section(results: dict | None) -> str:
         f"({photos['intact']} intact, {photos['deformed']} deformed); the model <code>{escape(str(results['model']))}"
         "</code> adapted on them, and the same backbone with ImageNet weights only trained on them alone; both "
         f"scored on the remaining photos, over {results['draws']} draws × {results['seeds']} seeds per k. Mean and "
-        "95 % interval of the mean over those runs (k = 0: the model as it is, the interval over the photos). "
+        "95 % bootstrap interval of the mean over the draws (k = 0: the model as it is, the interval over the photos). "
         "Majority class: the share of the commoner label among the photos scored at that k.</p>"
         f'<div class=scroll><table class="t2"><tr><th rowspan="2">k per class</th>{head}'
         f'<th rowspan="2" class="grp">majority class</th></tr><tr>{sub}</tr>{rows}'
