@@ -240,7 +240,7 @@ class Engine:
 
     def fewshot(self, real: str | Path, model: str | Path, out: str | Path, ks: Sequence[int] = (0, 1, 2, 5, 10, 20),
                 draws: int = 5, seeds: int = 2, recipe: Recipe | None = None,
-                curves: Sequence[str] = ("synthetic", "imagenet"), data: str | Path | None = None,
+                curves: Sequence[str] = ("synthetic", "unadapted", "imagenet"), data: str | Path | None = None,
                 variant: str | None = None) -> dict:
         """The few-shot benchmark: ``model`` adapted on k labelled photos per class of ``real`` and scored on the
         others, beside the ImageNet backbone trained on them alone; its results (also in ``out/fewshot.json``, the

@@ -64,6 +64,7 @@ def test_each_run_scores_the_photos_it_did_not_adapt_on(tiny, tmp_path):
         assert run["n_test"] == 12 - 2 * run["k"] and len(run["adapted_on"]) == 2 * run["k"]
     assert [r["k"] for r in results["curves"]["synthetic"]] == [0, 1, 2, 5]
     assert [r["k"] for r in results["curves"]["imagenet"]] == [1, 2, 5]
+    assert [r["runs"] for r in results["curves"]["unadapted"]] == [2, 2, 2]  # one per draw: it trains nothing
     assert results["curves"]["synthetic"][0]["interval"] == "photos"
     assert [r["majority"] for r in results["curves"]["synthetic"]] == [0.5] * 4
     for row in results["curves"]["imagenet"]:

@@ -68,8 +68,9 @@ def fewshot(
     lr: float = typer.Option(1e-4, "--lr", help="learning rate of the synthetic model's adaptation (the ImageNet "
                              "curve trains its new head at the model's train.lr)"),
     views: int = typer.Option(4, "--views", help="augmented views of each photo, beside its plain image"),
-    curves: str = typer.Option("synthetic,imagenet", "--curves", help="comma-separated curves: synthetic (the "
-                               "model adapted), imagenet (ImageNet weights, trained on the k photos alone)"),
+    curves: str = typer.Option("synthetic,unadapted,imagenet", "--curves", help="comma-separated curves: synthetic "
+                               "(the model adapted), unadapted (the model as it is, on the same photos), imagenet "
+                               "(ImageNet weights, trained on the k photos alone)"),
     data: Optional[Path] = typer.Option(None, "--data", help="generated dataset whose images are mixed into the "
                                         "synthetic model's batches (with --variant)"),
     variant: Optional[str] = typer.Option(None, "--variant", help="image variant of --data"),

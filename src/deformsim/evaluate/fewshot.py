@@ -7,6 +7,7 @@ asserted). Two curves, on the same draws:
 
 - ``synthetic``: the trained model, adapted (:func:`deformsim.learn.finetune.adapt`) at the recipe's small
   learning rate, with the synthetic images of ``data`` mixed in when given; k = 0 is the model as it is.
+- ``unadapted``: the trained model as it is, scored on the same photos as ``synthetic`` (what adapting adds).
 - ``imagenet``: the same backbone with ImageNet weights only (a fresh ``build`` of the model's config, its
   feature BatchNorm off as nothing would estimate it), trained on the k photos alone at the training learning
   rate; k = 0 is the majority baseline. As k grows, the photos left to score grow more unbalanced: each k
@@ -39,8 +40,9 @@ if TYPE_CHECKING:
 log = get_logger(__name__)
 
 KS = (0, 1, 2, 5, 10, 20)
-CURVES = ("synthetic", "imagenet")
-TITLES = {"synthetic": "synthetic-pretrained, adapted", "imagenet": "ImageNet only, trained on the k photos"}
+CURVES = ("synthetic", "unadapted", "imagenet")
+TITLES = {"synthetic": "synthetic-pretrained, adapted", "unadapted": "synthetic-pretrained, not adapted",
+          "imagenet": "ImageNet only, trained on the k photos"}
 BOOTSTRAP = 2000
 
 
@@ -159,8 +161,9 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
     device = pick_device(cfg.device)
     trained, _ = checkpoint.restore(ckpt, path)
     models, weights = {}, {}
-    if "synthetic" in curves:
-        models["synthetic"], weights["synthetic"] = trained.to(device), ckpt.get("weights", "")
+    for curve in ("synthetic", "unadapted"):
+        if curve in curves:
+            models[curve], weights[curve] = trained.to(device), ckpt.get("weights", "")
     if "imagenet" in curves:
         fresh, weights["imagenet"] = build(cfg.model_copy(update={"feature_norm": False}))
         models["imagenet"] = fresh.to(device)
@@ -185,7 +188,8 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
         return compute_metrics(y[rows], torch.sigmoid(logits).cpu().double().numpy(), cfg.threshold)
 
     runs: list[dict] = []
-    total = sum(draws * seeds * len(models) if k else int("synthetic" in models) for k in ks)
+    repeats = {c: seeds if c != "unadapted" else 1 for c in models}  # the unadapted model draws nothing
+    total = sum(draws * sum(repeats.values()) if k else int("synthetic" in models) for k in ks)
     for k in ks:
         for d in range(draws if k else 1):
             chosen, rest = draw(y, k, np.random.default_rng([k, d]))
@@ -193,10 +197,10 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
             assert set(table["path"].iloc[chosen]).isdisjoint(table["path"].iloc[rest]) and len(rest)
             rows = torch.as_tensor(chosen, dtype=torch.long)
             for curve in models if k else [c for c in models if c == "synthetic"]:
-                for s in range(seeds if k else 1):
+                for s in range(repeats[curve] if k else 1):
                     net = models[curve]
                     trains[curve].load_state_dict(starts[curve])
-                    if k:
+                    if k and curve != "unadapted":
                         run_recipe = Recipe(part=recipe.part, steps=recipe.steps, lr=lrs[curve],
                                             batch_size=recipe.batch_size, views=recipe.views, seed=s)
                         if curve == "imagenet":
