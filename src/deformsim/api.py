@@ -230,13 +230,14 @@ class Engine:
         return render_preview(_path(spec), _path(mesh), out, resolution, samples, bank=bank, progress=self.progress)
 
     def sim2real(self, real: str | Path, out: str | Path, plan: Plan | None = None, adapt: str | Path | None = None,
-                 datasets: str | Path | None = None) -> dict:
+                 datasets: str | Path | None = None, baseline: str | Path | None = None) -> dict:
         """The sim-to-real benchmark: train on synthetic images over the seeds of ``plan``, test on the labelled
-        ``real`` photos; its results (also in ``out/results.json`` and ``out/report.html``)."""
+        ``real`` photos; its results (also in ``out/results.json`` and ``out/report.html``), with the paired
+        differences to the ``baseline`` benchmark's results when given."""
         from deformsim.evaluate.benchmark import Plan, run_benchmark
 
         return run_benchmark(self.config, Path(out), Path(real), plan or Plan(), adapt=_path(adapt),
-                             datasets=_path(datasets), progress=self.progress)
+                             datasets=_path(datasets), progress=self.progress, baseline=_path(baseline))
 
     def fewshot(self, real: str | Path, model: str | Path, out: str | Path, ks: Sequence[int] = (0, 1, 2, 5, 10, 20),
                 draws: int = 5, seeds: int = 2, recipe: Recipe | None = None,

@@ -380,8 +380,9 @@ class TrainConfig(_Model):
         "vgg16", description="ImageNet-pretrained network whose features the head learns on (deformsim.learn.backbones)"
     )
     weights: Literal["imagenet", "offline", "none"] = Field(
-        "imagenet", description="imagenet: torchvision's weights, else the offline package's; offline: the offline "
-        "package's only; none: random initialisation"
+        "imagenet", description="imagenet: the backbone's download (torchvision's file, DINOv2's through torch.hub) from "
+        "the hub cache or the internet, else the offline package's; offline: the offline package's only; none: random "
+        "initialisation"
     )
     image_size: int = Field(224, ge=32, le=1024, description="input size in pixels (images are resized to it)")
     hidden: tuple[Width, Width] = Field((256, 128), description="widths of the mlp head's two hidden layers")
@@ -421,6 +422,28 @@ class TrainConfig(_Model):
         "label", description="label: intact/deformed (the paper); on dense datasets also severity (max displacement, "
         "mm), family (deformation kinds, multi-label) or localise (deformed-region mask)"
     )
+    schedule: Literal["constant", "cosine"] = Field(
+        "constant", description="learning rate over the epochs: constant, or cosine decay to zero (fine-tuning)"
+    )
+    ensemble: int = Field(
+        1, ge=1, le=16, description="models trained with seeds seed, seed+1, ... and saved as one that predicts their "
+        "mean probability (they share the frozen layers, so their cached features too)"
+    )
+    tta_flip: bool = Field(
+        False, description="test time: average the prediction of each image and its mirror image"
+    )
+    crop: Literal["none", "saliency"] = Field(
+        "none", description="test time: none, or crop each image to a square around its most salient region (the "
+        "part, found by spectral-residual saliency) before classifying; training images are not cropped"
+    )
+
+    @model_validator(mode="after")
+    def _spatial(self) -> "TrainConfig":
+        if self.target == "localise" and not BACKBONES[self.backbone].spatial:
+            raise ValueError(f"train.target localise needs a convolutional backbone; {self.backbone} outputs tokens")
+        if self.ensemble > 1 and self.target != "label":
+            raise ValueError(f"train.ensemble applies to train.target label, not {self.target}")
+        return self
 
 
 class Config(_Model):

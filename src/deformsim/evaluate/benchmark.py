@@ -6,6 +6,8 @@ generate seed (``data_seeds``), in which background photo lands behind which ren
 and in the training seed (``train_seeds``); the rendered ``black`` variant has no background draw. The real
 labels are read only to score predictions: training, its validation split and the 0.5 threshold never see
 them. Unlabelled photos given as ``adapt`` may adapt the model (whatever their folders, no label is read).
+Beside the runs' mean the results hold each draw's ensemble of its training seeds and, given a ``baseline``
+benchmark, the paired differences to it (:mod:`deformsim.evaluate.paired`).
 """
 
 from __future__ import annotations
@@ -72,10 +74,25 @@ def _draws(variant: str, plan: Plan) -> range:
     return range(1) if variant in RENDERED else range(plan.composite_seeds)
 
 
+def read_results(path: Path) -> dict:
+    """A benchmark's ``results.json`` (or the folder holding it), checked enough to compare with; one line if not."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "results.json"
+    try:
+        results = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise UserError(f"cannot read benchmark results {path}: {getattr(exc, 'strerror', None) or exc}") from None
+    runs = results.get("runs") if isinstance(results, dict) else None
+    if not isinstance(runs, list) or not runs or not all(isinstance(r, dict) and "real_predictions" in r for r in runs):
+        raise UserError(f"{path} holds no benchmark runs with real-photo predictions")
+    return results
+
+
 def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt: Path | None = None,
-                  datasets: Path | None = None, progress: bool = True) -> dict:
+                  datasets: Path | None = None, progress: bool = True, baseline: Path | None = None) -> dict:
     """Generate (or reuse), composite, train and test every run of ``plan``; write ``out/results.json`` and
-    ``out/report.html``.
+    ``out/report.html``. ``baseline``: another benchmark's results to compare with, run by run.
 
     Datasets live in ``datasets`` (default ``out``), named by their settings, so benchmarks of other training or
     compositing settings reuse the renders; composited variants are named by their settings too.
@@ -84,6 +101,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     from deformsim.dataset.variants import variant_table
     from deformsim.evaluate.experiments import grouped_split
     from deformsim.evaluate.metrics import compute_metrics
+    from deformsim.evaluate.paired import check_same_photos, compare, ensembles
     from deformsim.generate.identity import data_name
     from deformsim.generate.stage import generate, prepare
     from deformsim.identity import digest
@@ -95,6 +113,9 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     t_start = time.perf_counter()
     out = Path(out)
     real_df = real_table(real)
+    base = read_results(baseline) if baseline is not None else None
+    if base is not None:
+        check_same_photos({"real_paths": list(real_df["path"]), "real_labels": list(real_df["y"])}, base)
     photo_variants = [v for v in plan.variants if v not in (*RENDERED, "procedural")]
     if photo_variants and cfg.composite.backgrounds is None:
         raise UserError(f"variants {', '.join(photo_variants)} need composite.backgrounds (a photo folder)")
@@ -157,8 +178,11 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
         "settings": cfg.model_dump(mode="json"),
         "variants": aggregate(runs),
         "runs": runs,
-        "seconds": time.perf_counter() - t_start,
     }
+    results["ensembles"] = ensembles(results)
+    if base is not None:
+        results["baseline"] = {"results": str(Path(baseline).resolve()), "comparison": compare(results, base)}
+    results["seconds"] = time.perf_counter() - t_start
     write_json(out / "results.json", results)
     write_benchmark_report(results, out)
     return results

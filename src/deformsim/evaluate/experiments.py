@@ -121,13 +121,14 @@ def gradcam_images(predictor, predictions: list[dict], threshold: float, out_dir
     ``out_dir/folder/<n>.png``; returns their predictions, each with its ``image`` relative to ``out_dir``."""
     from PIL import Image
 
+    from deformsim.learn.crops import crop
     from deformsim.learn.gradcam import gradcam, overlay
 
     chosen = [predictions[i] for i in review_order(predictions, threshold)[:GRADCAM_MAX]]
     cams = np.concatenate([gradcam(predictor.model, z) for z in predictor._stems([p["path"] for p in chosen])])
     out = []
     for n, (p, cam) in enumerate(zip(chosen, cams)):
-        photo = open_rgb(p["path"])
+        photo = crop(open_rgb(p["path"]), predictor.cfg.crop)  # what the model saw
         photo.thumbnail((GRADCAM_SIZE, GRADCAM_SIZE))
         buf = io.BytesIO()
         Image.fromarray(overlay(np.asarray(photo), cam)).save(buf, format="PNG")

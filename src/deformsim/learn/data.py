@@ -11,33 +11,45 @@ from PIL import Image
 from deformsim.dataset.images import open_rgb
 
 
-def load_image(path: str | Path, size: int) -> torch.Tensor:
-    """0-1 RGB float tensor (3, size, size); the image is resized (not cropped) to a square, as in the paper.
+def load_image(path: str | Path, size: int, crop: str = "none", flip: bool = False) -> torch.Tensor:
+    """0-1 RGB float tensor (3, size, size); the image is resized (not cropped) to a square, as in the paper, after
+    the test-time ``crop`` (:func:`deformsim.learn.crops.crop`), and mirrored left to right with ``flip``.
 
     Any file mode reads as the same 8-bit sRGB RGB (:func:`deformsim.dataset.images.open_rgb`).
     """
-    im = open_rgb(path).resize((size, size), Image.BILINEAR)
-    return torch.from_numpy(np.asarray(im).copy()).permute(2, 0, 1).float().div_(255)
+    im = open_rgb(path)
+    if crop != "none":
+        from deformsim.learn.crops import crop as crop_image
+
+        im = crop_image(im, crop)
+    x = torch.from_numpy(np.asarray(im.resize((size, size), Image.BILINEAR)).copy()).permute(2, 0, 1).float().div_(255)
+    return x.flip(-1) if flip else x
 
 
 def augmenter(size: int):
-    """Random resized crop, horizontal flip and small colour jitter (uses torch's seeded global RNG)."""
+    """Random resized crop, horizontal flip, colour jitter, and in a third of the images each a Gaussian blur and
+    sensor noise (uses torch's seeded global RNG)."""
     from torchvision.transforms import v2
 
     return v2.Compose([
-        v2.RandomResizedCrop(size, scale=(0.8, 1.0), ratio=(0.9, 1.1), antialias=True),
+        v2.RandomResizedCrop(size, scale=(0.7, 1.0), ratio=(0.85, 1.15), antialias=True),
         v2.RandomHorizontalFlip(),
-        v2.ColorJitter(brightness=0.15, contrast=0.15, saturation=0.15, hue=0.02),
+        v2.ColorJitter(brightness=0.2, contrast=0.2, saturation=0.2, hue=0.02),
+        v2.RandomApply([v2.GaussianBlur(5, sigma=(0.3, 1.5))], p=1 / 3),
+        v2.RandomApply([v2.GaussianNoise(sigma=0.02)], p=1 / 3),
     ])
 
 
 class ImageSet(torch.utils.data.Dataset):
-    def __init__(self, paths: list, size: int, transform=None):
+    """Images of ``paths`` as :func:`load_image` reads them (``crop``, ``flip``), then ``transform``."""
+
+    def __init__(self, paths: list, size: int, transform=None, crop: str = "none", flip: bool = False):
         self.paths, self.size, self.transform = [str(p) for p in paths], size, transform
+        self.crop, self.flip = crop, flip
 
     def __len__(self) -> int:
         return len(self.paths)
 
     def __getitem__(self, i: int) -> torch.Tensor:
-        x = load_image(self.paths[i], self.size)
+        x = load_image(self.paths[i], self.size, self.crop, self.flip)
         return self.transform(x) if self.transform else x

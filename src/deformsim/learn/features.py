@@ -1,13 +1,13 @@
 """Per-image cache of the frozen stem's outputs: each image goes through the frozen layers once.
 
 Every model built from the same backbone weights shares its frozen stem, so the cache is keyed per image:
-``cache_dir()/features/<backbone>-<size>-<stem hash>/<image hash>.pt`` holds one image's activations entering
-the first trainable layer, in float32 so cached predictions equal uncached ones (and the ONNX export) to 1e-5.
-The stem hash covers the frozen weights themselves; the image hash the image file's bytes (sha256) and the
-version of the image loader, so a rewritten image (even one copied over another with the same size and time),
-other weights or another decoding make new files, and identical images share one. Training, prediction and PCA
-features of every run read the same files. An entry that is not a finite float32 tensor of the stem's shape is
-computed again and replaced.
+``cache_dir()/features/<backbone>-<size>[-<crop>][-flip]-<stem hash>/<image hash>.pt`` holds one image's
+activations entering the first trainable layer (of the image as the test-time crop and mirror show it), in float32
+so cached predictions equal uncached ones (and the ONNX export) to 1e-5. The stem hash covers the frozen weights
+themselves; the image hash the image file's bytes (sha256) and the version of the image loader, so a rewritten
+image (even one copied over another with the same size and time), other weights or another decoding make new files,
+and identical images share one. Training, prediction and PCA features of every run read the same files. An entry
+that is not a finite float32 tensor of the stem's shape is computed again and replaced.
 """
 
 from __future__ import annotations
@@ -54,15 +54,17 @@ def _image_identity(path: str) -> str:
         raise UserError(f"cannot read image {path}: {exc.strerror}") from None
 
 
-def cache_key(model: DeformNet, paths: list[str], size: int) -> list[str]:
+def cache_key(model: DeformNet, paths: list[str], size: int, crop: str = "none", flip: bool = False) -> list[str]:
     """Cache file names (relative to ``cache_dir()/features``) of the stem activations of ``paths`` at ``size``."""
-    folder = f"{model.backbone}-{size}-{stem_hash(model)[:24]}"
+    view = ("" if crop == "none" else f"-{crop}") + ("-flip" if flip else "")
+    folder = f"{model.backbone}-{size}{view}-{stem_hash(model)[:24]}"
     return [f"{folder}/{hashlib.sha256(_image_identity(str(p)).encode()).hexdigest()[:32]}.pt" for p in paths]
 
 
-def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, progress: bool = False) -> torch.Tensor:
+def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, progress: bool = False,
+             crop: str = "none", flip: bool = False) -> torch.Tensor:
     """Frozen-stem activations (float32) of ``paths``, computed in eval mode without gradients."""
-    loader = torch.utils.data.DataLoader(ImageSet(paths, size), batch_size=batch_size)
+    loader = torch.utils.data.DataLoader(ImageSet(paths, size, crop=crop, flip=flip), batch_size=batch_size)
     device = model.mean.device
     was_training = model.training
     model.eval()
@@ -97,18 +99,20 @@ def _load(path: Path, shape: tuple[int, ...]) -> torch.Tensor | None:
     return t if ok and bool(torch.isfinite(t).all()) else None
 
 
-def cached_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, progress: bool = False) -> torch.Tensor:
-    """Stem activations (float32, N x C x H x W) of ``paths``: cached images are read, only the others computed and stored."""
+def cached_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, progress: bool = False,
+                crop: str = "none", flip: bool = False) -> torch.Tensor:
+    """Stem activations (float32, N x C x H x W) of ``paths`` (test-time ``crop`` and ``flip`` as
+    :func:`deformsim.learn.data.load_image`): cached images are read, only the others computed and stored."""
     if not paths:
         raise ValueError("cached_stem needs at least one image")
     root = cache_dir() / "features"
-    files = [root / k for k in cache_key(model, paths, size)]
+    files = [root / k for k in cache_key(model, paths, size, crop, flip)]
     shape = stem_shape(model, size)
     found = {f: _load(f, shape) for f in dict.fromkeys(files)}
     missing = [f for f, t in found.items() if t is None]
     if missing:
         path_of = dict(zip(files, map(str, paths)))
-        feats = run_stem(model, [path_of[f] for f in missing], size, batch_size, progress)
+        feats = run_stem(model, [path_of[f] for f in missing], size, batch_size, progress, crop, flip)
         for f, t in zip(missing, feats):
             t = t.clone()  # a view would save the whole batch's storage
             checkpoint.write(f, t)

@@ -10,11 +10,16 @@ import numpy as np
 import torch
 from torch import nn
 
-from deformsim.learn.models import DeformNet
+from deformsim.learn.models import DeformNet, Ensemble, members
 
 
-def gradcam(model: DeformNet, stems: torch.Tensor) -> np.ndarray:
-    """Heatmaps (N, h, w) in [0, 1] of P(deformed) for stem activations ``stems`` (N, C, H, W)."""
+def gradcam(model: DeformNet | Ensemble, stems: torch.Tensor) -> np.ndarray:
+    """Heatmaps (N, h, w) in [0, 1] of P(deformed) for stem activations ``stems`` (N, C, H, W); an ensemble's is
+    the mean of its members'."""
+    return np.mean([_gradcam(net, stems) for net in members(model)], axis=0)
+
+
+def _gradcam(model: DeformNet, stems: torch.Tensor) -> np.ndarray:
     model.eval()
     layers = list(model.features[model.cut :])
     split = len(layers) - 1 if isinstance(layers[-1], nn.MaxPool2d) else len(layers)

@@ -105,18 +105,68 @@ class DeformNet(nn.Module):
         return self.outputs(self.stem(x))
 
 
-def build(cfg: TrainConfig, load_weights: bool = True, outputs: int = 1) -> tuple[DeformNet, str]:
-    """The model for ``cfg`` (random init seeded by cfg.seed) with its backbone weights and their source.
+class Ensemble(nn.Module):
+    """``train.ensemble`` DeformNets of one config, trained with consecutive seeds, that share the frozen stem (one
+    cache of stem activations serves all): predictions are the mean of their probabilities (``tail`` returns its
+    logit), ``embed`` is the first member's."""
+
+    def __init__(self, members: list[DeformNet]):
+        super().__init__()
+        first = members[0]
+        for m in members[1:]:
+            for i in range(first.cut):
+                m.features[i] = first.features[i]
+        self.members = nn.ModuleList(members)
+        self.backbone, self.target, self.cut = first.backbone, first.target, first.cut
+
+    @property
+    def features(self) -> nn.Sequential:
+        return self.members[0].features
+
+    @property
+    def mean(self) -> torch.Tensor:
+        return self.members[0].mean
+
+    def stem(self, x: torch.Tensor) -> torch.Tensor:
+        return self.members[0].stem(x)
+
+    def outputs(self, z: torch.Tensor) -> torch.Tensor:
+        return torch.stack([m.outputs(z) for m in self.members]).mean(0)
+
+    def tail(self, z: torch.Tensor) -> torch.Tensor:
+        return torch.logit(self.outputs(z))
+
+    def embed(self, z: torch.Tensor, layer: str = "penultimate") -> torch.Tensor:
+        return self.members[0].embed(z, layer)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.tail(self.stem(x))
+
+    def predict(self, x: torch.Tensor) -> torch.Tensor:
+        return self.outputs(self.stem(x))
+
+
+def members(model: DeformNet | Ensemble) -> list[DeformNet]:
+    """The networks of a model: an ensemble's members, or the model itself."""
+    return list(model.members) if isinstance(model, Ensemble) else [model]
+
+
+def build(cfg: TrainConfig, load_weights: bool = True, outputs: int = 1) -> tuple[DeformNet | Ensemble, str]:
+    """The model for ``cfg`` (member k's random init seeded by cfg.seed + k) with its backbone weights and their
+    source: a :class:`DeformNet`, or an :class:`Ensemble` of ``cfg.ensemble`` of them.
 
     ``load_weights=False`` skips resolving pretrained weights (when a saved state dict follows); ``outputs``:
     the number of families of a ``family`` model.
     """
-    torch.manual_seed(cfg.seed)
-    model = DeformNet(cfg.backbone, cfg.hidden, cfg.dropout, cfg.finetune, cfg.head, cfg.feature_norm, cfg.target,
-                      outputs, cfg.image_size)
-    if not load_weights:
-        return model, "loaded from a saved model"
-    state, desc = resolve(cfg.backbone, cfg.weights)
-    if state is not None:
-        model.features.load_state_dict(state)
-    return model, desc
+    nets = []
+    for k in range(cfg.ensemble):
+        torch.manual_seed(cfg.seed + k)
+        nets.append(DeformNet(cfg.backbone, cfg.hidden, cfg.dropout, cfg.finetune, cfg.head, cfg.feature_norm,
+                              cfg.target, outputs, cfg.image_size))
+    desc = "loaded from a saved model"
+    if load_weights:
+        state, desc = resolve(cfg.backbone, cfg.weights)
+        if state is not None:
+            for net in nets:
+                net.features.load_state_dict(state)
+    return (nets[0] if len(nets) == 1 else Ensemble(nets)), desc

@@ -3,7 +3,9 @@
 The graph takes ``image``: float32 (N, 3, S, S) RGB in 0-1 (resized to the training size S, no
 normalisation: it is inside the graph) and outputs ``p_deformed``: (N,) probabilities, or for the other
 ``train.target`` s ``max_disp_mm`` (N,), ``p_family`` (N, K) or ``p_region`` (N, s, s). The training
-threshold, classes, target, output names, image size and weights source are stored as ONNX metadata.
+threshold, classes, target, output names, image size and weights source are stored as ONNX metadata. An
+ensemble's mean and test-time flips (``train.tta_flip``) are inside the graph; a test-time crop
+(``train.crop``) is not: the metadata names it, to apply before the graph.
 """
 
 from __future__ import annotations
@@ -17,19 +19,23 @@ from torch import nn
 from deformsim.atomic import atomic_path
 from deformsim.errors import ResourceError, UserError
 from deformsim.learn.checkpoint import read_checkpoint, restore
-from deformsim.learn.models import DeformNet
+from deformsim.learn.models import DeformNet, Ensemble
 from deformsim.outputs import DISK_FULL, check_file_target
 
 OUTPUT = {"label": "p_deformed", "severity": "max_disp_mm", "family": "p_family", "localise": "p_region"}
 
 
 class _Probabilities(nn.Module):
-    def __init__(self, model: DeformNet):
+    def __init__(self, model: DeformNet | Ensemble, flip: bool, target: str):
         super().__init__()
-        self.model = model
+        self.model, self.flip, self.target = model, flip, target
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
-        return self.model.predict(image)
+        out = self.model.predict(image)
+        if not self.flip:
+            return out
+        mirrored = self.model.predict(image.flip(-1))
+        return (out + (mirrored.flip(-1) if self.target == "localise" else mirrored)) / 2
 
 
 def to_onnx(model_path: str | Path, onnx_path: str | Path) -> Path:
@@ -49,20 +55,21 @@ def to_onnx(model_path: str | Path, onnx_path: str | Path) -> Path:
     return onnx_path
 
 
-def _export(model: DeformNet, cfg, ckpt: dict, onnx_path: Path) -> None:
+def _export(model: DeformNet | Ensemble, cfg, ckpt: dict, onnx_path: Path) -> None:
     import onnx
 
     example = torch.zeros(1, 3, cfg.image_size, cfg.image_size)
     output = OUTPUT[cfg.target]
     with atomic_path(onnx_path) as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice
-        torch.onnx.export(_Probabilities(model), (example,), str(tmp), dynamo=False, opset_version=17,
+        torch.onnx.export(_Probabilities(model, cfg.tta_flip, cfg.target), (example,), str(tmp), dynamo=False, opset_version=17,
                           input_names=["image"], output_names=[output],
                           dynamic_axes={"image": {0: "batch"}, output: {0: "batch"}})
         proto = onnx.load(str(tmp))
         meta = {"classes": ",".join(ckpt.get("classes", [])), "threshold": str(cfg.threshold),
                 "image_size": str(cfg.image_size), "backbone": cfg.backbone, "weights": ckpt.get("weights", ""),
                 "target": cfg.target, "outputs": ",".join(ckpt.get("outputs", ["deformed"])),
+                "ensemble": str(cfg.ensemble), "tta_flip": str(cfg.tta_flip).lower(), "crop": cfg.crop,
                 "input": "RGB float32 in [0, 1], NCHW, resized to image_size x image_size"}
         for k, v in meta.items():
             proto.metadata_props.add(key=k, value=v)

@@ -21,7 +21,9 @@ CHUNK = 512  # images whose cached stem activations are held in memory at once
 
 
 class Predictor:
-    """A trained model in eval mode; ``cfg.image_size`` and ``cfg.threshold`` come from training.
+    """A trained model in eval mode; ``cfg.image_size`` and ``cfg.threshold`` come from training, and so do the
+    test-time options: ``cfg.crop`` crops each image before it is classified, ``cfg.tta_flip`` averages each
+    prediction with its mirror image's (a region map mirrored back first).
 
     ``progress``: a progress bar while images go through the frozen layers (None: when stderr is a terminal).
     """
@@ -43,18 +45,19 @@ class Predictor:
     def _show_progress(self) -> bool:
         return self.progress if self.progress is not None else sys.stderr.isatty()
 
-    def _stems(self, paths):
-        """Batches of stem activations (float32 on the device): cached per image unless ``cache_features`` is off."""
-        paths, bs = [str(p) for p in paths], self.cfg.batch_size
+    def _stems(self, paths, flip: bool = False):
+        """Batches of stem activations (float32 on the device) of the images as the model's test-time crop and
+        ``flip`` show them: cached per image unless ``cache_features`` is off."""
+        paths, bs, crop = [str(p) for p in paths], self.cfg.batch_size, self.cfg.crop
         if not self.cfg.cache_features:
-            loader = torch.utils.data.DataLoader(ImageSet(paths, self.cfg.image_size), batch_size=bs)
+            loader = torch.utils.data.DataLoader(ImageSet(paths, self.cfg.image_size, crop=crop, flip=flip), batch_size=bs)
             with progress_bar(len(loader), "frozen layers", self._show_progress) as bar:
                 for x in loader:
                     yield self.model.stem(x.to(self.device))
                     bar.update()
             return
         for i in range(0, len(paths), CHUNK):  # bounded memory on large folders
-            stems = cached_stem(self.model, paths[i : i + CHUNK], self.cfg.image_size, bs, self._show_progress)
+            stems = cached_stem(self.model, paths[i : i + CHUNK], self.cfg.image_size, bs, self._show_progress, crop, flip)
             for z in stems.split(bs):
                 yield z.to(self.device)
 
@@ -62,19 +65,22 @@ class Predictor:
         if self.target != target:
             raise UserError(f"{self.path} predicts train.target {self.target}, not {target}")
 
-    @torch.inference_mode()
     def predict_proba(self, paths: list[str | Path]) -> np.ndarray:
         """P(deformed) per image, float64 (N,)."""
         self._needs("label")
-        out = [torch.sigmoid(self.model.tail(z)).cpu() for z in self._stems(paths)]
-        return torch.cat(out).double().numpy() if out else np.zeros(0)
+        return self.predict_outputs(paths)
 
     @torch.inference_mode()
     def predict_outputs(self, paths: list[str | Path]) -> np.ndarray:
         """What the model predicts, float64: P(deformed) (N,), severity in mm (N,), family probabilities
         (N, K, in the order of ``outputs``) or region probability maps (N, s, s)."""
-        out = [self.model.outputs(z).cpu() for z in self._stems(paths)]
-        return torch.cat(out).double().numpy() if out else np.zeros(0)
+        if not paths:
+            return np.zeros(0)
+        views = []
+        for flip in (False, True) if self.cfg.tta_flip else (False,):
+            out = torch.cat([self.model.outputs(z).cpu() for z in self._stems(paths, flip)]).double()
+            views.append(out.flip(-1) if flip and self.target == "localise" else out)
+        return torch.stack(views).mean(0).numpy()
 
     def predict(self, paths: list[str | Path]) -> tuple[np.ndarray, list[str]]:
         """Probabilities and class names at the training threshold."""

@@ -7,6 +7,9 @@ With ``cache_features`` (and no augmentation) every epoch trains on the cached s
 images (:mod:`deformsim.learn.features`); otherwise each batch goes through the whole network.
 
 ``train.target`` other than ``label`` trains a head on the dense labels instead (:mod:`deformsim.learn.targets`).
+
+``train.ensemble`` K > 1 trains K members one after the other on the same split and the same cached stem, member
+k with seed ``seed + k`` (initialisation, batch order, dropout); the history is their mean per epoch.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from deformsim.learn import checkpoint
 from deformsim.learn.data import ImageSet, augmenter
 from deformsim.learn.device import pick_device, set_threads
 from deformsim.learn.features import cached_stem
-from deformsim.learn.models import DeformNet, build
+from deformsim.learn.models import DeformNet, build, members
 from deformsim.log import get_logger, progress_bar
 
 log = get_logger(__name__)
@@ -128,9 +131,14 @@ def _adapt(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor, y: 
     return info
 
 
+def _optimiser(model: DeformNet, cfg: TrainConfig) -> torch.optim.Adam:
+    return torch.optim.Adam([p for p in model.parameters() if p.requires_grad], lr=cfg.lr)
+
+
 def _fit_label(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor, val_rows: torch.Tensor,
                y: torch.Tensor, cfg: TrainConfig, device: torch.device, progress: bool) -> list[dict]:
     order = torch.Generator().manual_seed(cfg.seed)
+    schedule = torch.optim.lr_scheduler.CosineAnnealingLR(opt, cfg.epochs) if cfg.schedule == "cosine" else None
     torch.manual_seed(cfg.seed)  # dropout and augmentation draw from here; a cache miss must not shift them
     history = []
     with progress_bar(cfg.epochs, "epochs", progress) as bar:
@@ -144,6 +152,8 @@ def _fit_label(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor,
                 loss, right = _step(model, opt, inputs(batch, train=True), y[batch.to(device)], cfg)
                 total += loss
                 correct += right
+            if schedule is not None:
+                schedule.step()
             val_loss, val_acc = _evaluate(model, inputs, val_rows, y, cfg)
             row = {"epoch": epoch, "loss": total / len(train_rows), "acc": correct / len(train_rows),
                    "val_loss": val_loss, "val_acc": val_acc, "seconds": time.perf_counter() - t0}
@@ -152,6 +162,21 @@ def _fit_label(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor,
             log.debug("epoch %d/%d: loss %.3f, accuracy %.3f, validation accuracy %s", epoch, cfg.epochs, row["loss"],
                       row["acc"], "-" if val_acc is None else f"{val_acc:.3f}")
     return history
+
+
+def _mean_history(histories: list[list[dict]]) -> list[dict]:
+    """Per epoch, the mean of the members' rows (one member: its own rows)."""
+    if len(histories) == 1:
+        return histories[0]
+    rows = []
+    for epoch_rows in zip(*histories):
+        row = dict(epoch_rows[0])
+        for key in ("loss", "acc", "val_loss", "val_acc"):
+            values = [r[key] for r in epoch_rows]
+            row[key] = None if None in values else sum(values) / len(values)
+        row["seconds"] = sum(r["seconds"] for r in epoch_rows)
+        rows.append(row)
+    return rows
 
 
 def _log_summary(history: list[dict], cfg: TrainConfig, n_train: int, n_val: int, seconds: float) -> None:
@@ -188,10 +213,12 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     train_rows, val_rows = (torch.as_tensor(r, dtype=torch.long) for r in split(table, cfg.split, cfg.seed))
     y = torch.tensor(table["y"].to_numpy(dtype="float32"), device=device)
     inputs = _Inputs(model, list(table["path"]), cfg, device, progress)
-    params = [p for p in model.parameters() if p.requires_grad]
-    opt = torch.optim.Adam(params, lr=cfg.lr)
+    nets = members(model)
+    opts = [_optimiser(net, cfg) for net in nets]
+    seeded = [cfg.model_copy(update={"seed": cfg.seed + k}) for k in range(len(nets))]
     if cfg.target == "label":
-        history = _fit_label(model, opt, inputs, train_rows, val_rows, y, cfg, device, progress)
+        history = _mean_history([_fit_label(net, opt, inputs, train_rows, val_rows, y, c, device, progress)
+                                 for net, opt, c in zip(nets, opts, seeded)])
     else:
         history = fit_head(model, inputs.all(torch.arange(len(table)), cfg.batch_size), table, train_rows, val_rows,
                            cfg, progress)
@@ -199,9 +226,17 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     if cfg.feature_norm and cfg.target == "label":
         from deformsim.learn.adapt import set_feature_stats
 
-        set_feature_stats(model, inputs.all(train_rows, cfg.batch_size), cfg.batch_size)
+        for net in nets:
+            set_feature_stats(net, inputs.all(train_rows, cfg.batch_size), cfg.batch_size)
     if adapt_paths:
-        adapted = {"folder": str(adapt), **_adapt(model, opt, inputs, train_rows, y, cfg, adapt_paths, device, progress)}
+        infos = [_adapt(net, opt, inputs, train_rows, y, c, adapt_paths, device, progress)
+                 for net, opt, c in zip(nets, opts, seeded)]
+        adapted = {"folder": str(adapt), **infos[0]}
+    ensemble = None
+    if len(nets) > 1:
+        loss, acc = _evaluate(model, inputs, val_rows, y, cfg)
+        ensemble = {"members": len(nets), "val_loss": loss, "val_acc": acc}
+        log.info("ensemble of %d: validation accuracy %s", len(nets), "-" if acc is None else f"{acc:.3f}")
     out_dir = Path(out_dir)
     model_path = out_dir / checkpoint.MODEL_FILE
     seconds = time.perf_counter() - start
@@ -210,5 +245,5 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     checkpoint.save(model_path, model, cfg, weights, history, split_ids, None if cfg.target == "label" else outputs)
     write_json(out_dir / "train.json", {"weights": weights, "seconds": seconds, "history": history,
                                         "n_train": len(train_rows), "n_val": len(val_rows), "adapted": adapted,
-                                        "config": cfg.model_dump(mode="json")})
+                                        "ensemble": ensemble, "config": cfg.model_dump(mode="json")})
     return TrainResult(model_path, history, weights, seconds)

