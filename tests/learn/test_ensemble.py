@@ -114,3 +114,24 @@ def test_a_cropped_model_reads_the_cropped_image(ensemble_dir, blobs, tmp_path):
     got = load(tmp_path).predict_proba([path])
     np.testing.assert_allclose(got, expected, atol=1e-6)
     assert not np.allclose(got, whole, atol=1e-6)
+
+
+def test_cli_trains_an_ensemble_that_evaluates_and_exports(blobs, tmp_path):
+    from typer.testing import CliRunner
+
+    from deformsim.cli.app import app
+
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("train: {image_size: 64, backbone: efficientnet_lite0, weights: offline, head: linear}\n")
+    folder = blobs["path"][0].rsplit("/", 2)[0]
+    run = CliRunner().invoke
+    res = run(app, ["train", folder, "--out", str(tmp_path / "m"), "--epochs", "1", "--ensemble", "2", "--config",
+                    str(cfg), "--no-progress"])
+    assert res.exit_code == 0, res.output
+    assert read_checkpoint(tmp_path / "m")[0]["config"]["ensemble"] == 2
+    res = run(app, ["evaluate", str(tmp_path / "m"), "--real", folder])
+    assert res.exit_code == 0, res.output
+    res = run(app, ["export", str(tmp_path / "m"), "--onnx", str(tmp_path / "m.onnx")])
+    assert res.exit_code == 0 and (tmp_path / "m.onnx").is_file()
+    res = run(app, ["train", folder, "--out", str(tmp_path / "m2"), "--ensemble", "0", "--config", str(cfg)])
+    assert res.exit_code == 2 and "train.ensemble" in res.output
