@@ -39,15 +39,55 @@ class _Model(StrictModel):
     model_config = ConfigDict(extra="forbid", validate_assignment=True)  # overrides are validated too
 
 
+AngleRange = Annotated[Range, Within(0, 180)]
+UnitRange = Annotated[Range, Within(0, 1)]
+ScaleRange = Annotated[Range, Within(hi=10, above=0)]
+# The built-in can's named sizes (their real dimensions: deformsim.sampling.tables.CAN_SIZES).
+CAN_SIZES = ("slim250", "sleek330", "standard330", "standard355", "tall473", "tall500", "tall568")
+
+
+class ShapesConfig(_Model):
+    """``object.shapes``: the part's shape, drawn per sample. The built-in can takes one of its named sizes (real
+    diameter, height, neck and dome) or, in a share ``continuous`` of samples, a blend of two; any part then takes
+    the per-axis scale, taper and bulge. Every deformation (lattice keys, bank entries, crinkle, openings) follows
+    the shape (docs/variety.md). Off (null) by default."""
+
+    sizes: Annotated[list[Literal[CAN_SIZES]], NonEmpty("object.shapes.sizes is empty: name at least one size")] = Field(
+        list(CAN_SIZES), description="built-in can: the named sizes drawn from (uniformly); ignored for a mesh"
+    )
+    continuous: float = Field(
+        0.3, ge=0, le=1, description="built-in can: share of samples drawn between two of the sizes (every dimension "
+        "blended at a uniform point); the others take one size exactly"
+    )
+    neck: Annotated[Range, Within(0.5, 2)] = Field(
+        (1.0, 1.0), description="built-in can: factor on the neck's height, drawn per sample"
+    )
+    dome: Annotated[Range, Within(0.5, 2)] = Field(
+        (1.0, 1.0), description="built-in can: factor on the bottom dome's depth, drawn per sample"
+    )
+    scale: tuple[ScaleRange, ScaleRange, ScaleRange] = Field(
+        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0)), description="factors on the part's x, y and z extent, each drawn per "
+        "sample (x and y about the part's vertical axis, z from the ground up)"
+    )
+    taper: Annotated[Range, Within(-0.9, 0.9)] = Field(
+        (0.0, 0.0), description="widening towards the top, drawn per sample: x and y scale by 1 + taper * (2 h - 1) "
+        "at height share h (negative: a narrower top)"
+    )
+    bulge: Annotated[Range, Within(-0.5, 0.5)] = Field(
+        (0.0, 0.0), description="barrel, drawn per sample: x and y scale by 1 + bulge * sin(pi h) at height share h "
+        "(negative: a waist)"
+    )
+
+
 class ObjectConfig(_Model):
     """What is rendered: the built-in can or a user mesh, and its deformation spec."""
 
     mesh: Path | None = Field(None, description="CAD mesh (stl/obj/ply/glb/gltf/fbx); null = built-in can")
     spec: Path | None = Field(None, description="deformation spec YAML; null = built-in can spec")
-
-
-AngleRange = Annotated[Range, Within(0, 180)]
-UnitRange = Annotated[Range, Within(0, 1)]
+    shapes: Annotated[ShapesConfig | None, identity.WHEN_SET] = Field(
+        None, description="the part's shape drawn per sample (can sizes, per-axis scale, taper, bulge); null = "
+        "the part as built"
+    )
 Byte = Annotated[int, Field(ge=0, le=255)]
 Width = Annotated[int, Field(ge=1, le=8192)]  # a layer's width
 
@@ -224,6 +264,34 @@ class SurfaceConfig(_Model):
         return self
 
 
+class AppearanceConfig(_Model):
+    """``render.appearance``: printed artwork like real cans and texture photos on a user mesh, drawn per sample.
+
+    On the built-in can the label designer draws gradients, fine graphics, small text blocks, logos, metallic
+    (silver-showing) inks and bare-metal bodies, or a photo from ``photos`` becomes the artwork; on a user mesh a
+    photo from ``photos`` is its texture. Gloss and ink roughness are drawn per sample. Off (null) by default."""
+
+    designer: bool = Field(
+        True, description="built-in can: the label designer; false: the plain label (flat fields, a word, a barcode)"
+    )
+    photos: Path | None = Field(
+        None, description="folder of images used as artwork: the can's label, or a mesh's texture (box-projected), "
+        "in a share photo_share of samples"
+    )
+    photo_share: float = Field(0.5, ge=0, le=1, description="share of samples whose artwork is a photo (with photos)")
+    metallic_share: float = Field(
+        0.4, ge=0, le=1, description="built-in can: share of designs printed partly in metallic inks (silver showing)"
+    )
+    bare_share: float = Field(
+        0.15, ge=0, le=1, description="built-in can: share of designs on a bare-metal body (brushed aluminium, a few "
+        "inks on it)"
+    )
+    gloss: UnitRange = Field((0.0, 0.8), description="clear-coat weight (varnish gloss), drawn per sample")
+    roughness: UnitRange = Field(
+        (0.15, 0.5), description="built-in can: ink roughness, drawn per sample (a mesh keeps its spec's)"
+    )
+
+
 class RenderConfig(_Model):
     """Cycles settings."""
 
@@ -247,6 +315,10 @@ class RenderConfig(_Model):
     surface: Annotated[SurfaceConfig | None, identity.WHEN_SET] = Field(
         None, description="also write images/surface/ID.png: the part resting on a textured ground plane, the "
         "whole scene rendered under the same light (deformsim composite uses it by composite.surface); null = off"
+    )
+    appearance: Annotated[AppearanceConfig | None, identity.WHEN_SET] = Field(
+        None, description="printed artwork like real cans (designer, photos, metallic inks, bare metal) and texture "
+        "photos on a mesh, with gloss drawn per sample; null = the plain label and the spec's material"
     )
     # Cycles quality/speed (bench/render_quality.py measures them); defaults are Blender's, max_bounces 6.
     adaptive: bool = Field(False, description="adaptive sampling: stop pixels whose noise is below the threshold")

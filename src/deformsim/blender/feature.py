@@ -39,6 +39,7 @@ class RenderContext:
     camera_scale: float = 1.0
     ground: float = 0.0  # z the part stands on at rest
     features: list = field(default_factory=list)  # the active features, in registry order
+    shaper: object = None  # object.shapes: the blender.part.shapes.Shaper that shapes the part per sample
 
 
 class Feature:

@@ -65,6 +65,7 @@ def setup(msg: dict):
         from deformsim.blender.part.mesh_import import import_mesh
 
         obj = import_mesh(cfg.object.mesh, spec)
+    materials.enable_appearance(obj, cfg.render.appearance is not None)  # before the crease layer, which follows it
     materials.enable_creases(obj, cfg.render.creases)
     lo, hi = mesh_bounds(obj)
     size = hi - lo
@@ -89,6 +90,10 @@ def setup(msg: dict):
         pivot=pivot,
         ground=float(lo[2]),
     )
+    if cfg.object.shapes is not None:  # after the bank: its entries are shape keys too
+        from deformsim.blender.part.shapes import Shaper
+
+        ctx.shaper = Shaper(obj, rig.lattice, pivot, spec.lattice.margin, cfg.object.mesh is None)
     device = cycles.configure_cycles(scene, cfg.render, int(msg.get("threads") or cfg.render.threads))
     ctx.features = set_up(ctx)
     reply = {

@@ -60,12 +60,34 @@ def rows_for(p: SampleParams, layout: Layout, rendered: Rendered, camera_scale: 
             "design": json.dumps(p.design.__dict__ if p.design else None, sort_keys=True),
             "material": json.dumps(p.material.__dict__ if p.material else None, sort_keys=True),
             "lights": json.dumps([lp.__dict__ for lp in p.lights], sort_keys=True),
+            **shape_columns(p),
+            **appearance_columns(p),
             **{kind: layout.rel(layout.image(kind, iid)) for kind in RENDER_KINDS},
             "render_seconds": rendered.render_seconds[c],
             **(rendered.image_columns[c] if rendered.image_columns else {}),
         }
         rows.append(row)
     return rows
+
+
+def shape_columns(p: SampleParams) -> dict:
+    """The drawn shape (``object.shapes``), when the sample has one: the can size and its nominal dimensions (mm),
+    proportions, per-axis scale, taper and bulge."""
+    s = p.shape
+    if s is None:
+        return {}
+    return {"shape_size": s.size, "shape_diameter_mm": s.diameter, "shape_height_mm": s.height, "shape_rim": s.rim,
+            "shape_neck": s.neck, "shape_dome": s.dome, **{f"shape_scale_{a}": v for a, v in zip("xyz", s.scale)},
+            "shape_taper": s.taper, "shape_bulge": s.bulge}
+
+
+def appearance_columns(p: SampleParams) -> dict:
+    """The drawn artwork and finish (``render.appearance``), when the sample has them."""
+    a = p.appearance
+    if a is None:
+        return {}
+    return {"appearance_style": a.style, "appearance_seed": a.seed, "appearance_metallic": a.metallic,
+            "appearance_photo": a.photo, "appearance_gloss": a.gloss, "appearance_roughness": a.roughness}
 
 
 def framing_columns(p: SampleParams) -> list[tuple[str, str]]:

@@ -2,7 +2,7 @@
 
 The settings are the config's fields less those their :mod:`deformsim.identity` rule leaves out (worker counts,
 ``generate.n``, the later stages, an option at its default that changes nothing). The inputs are named by
-content: the sha256 of the mesh file's bytes, of the parsed spec, of the HDRI and texture photo files, and the
+content: the sha256 of the mesh file's bytes, of the parsed spec, of the HDRI, texture and artwork photo files, and the
 simulated bank's key. A dataset folder is named by both (:func:`data_name`).
 """
 
@@ -15,7 +15,7 @@ from deformsim.bank.store import bank_key
 from deformsim.config import Config
 from deformsim.hdri import hdri_files
 from deformsim.identity import digest, file_digest, files_digest, settings
-from deformsim.sampling import surface_photos
+from deformsim.sampling import artwork_photos, surface_photos
 from deformsim.spec.model import Spec, check_mesh_file, load_spec
 
 # The renderer's revision: raised whenever the Blender side renders the same settings differently, so no
@@ -34,10 +34,16 @@ def texture_photos(cfg: Config) -> list[str] | None:
     return surface_photos(s.photos) if s is not None and "photo" in s.kinds else None
 
 
+def appearance_photos(cfg: Config) -> list[str] | None:
+    """The artwork photos the config draws from (``render.appearance.photos``), else None."""
+    a = cfg.render.appearance
+    return artwork_photos(a.photos) if a is not None and a.photos is not None else None
+
+
 def input_digests(cfg: Config, spec: Spec | None = None) -> dict:
     """What the renders are made from, by content: sha256 of the mesh file, of the parsed spec (so a comment
-    or a reformatting does not count, a changed range does), of the HDRI files, and the simulated bank's key
-    when the samples use it."""
+    or a reformatting does not count, a changed range does), of the HDRI files, the surface and artwork photos
+    when the config uses them, and the simulated bank's key when the samples use it."""
     spec = spec or load_spec(cfg.object.spec)
     mesh = cfg.object.mesh
     if mesh is not None:
@@ -50,6 +56,7 @@ def input_digests(cfg: Config, spec: Spec | None = None) -> dict:
         "hdri": files_digest(list(hdri_files(hdri).values()), hdri) if hdri is not None else None,
         "bank": bank_key(spec, mesh) if cfg.deform.sources.uses_bank and spec.simulation else None,
         **({"surface": files_digest(photos, cfg.render.surface.photos)} if (photos := texture_photos(cfg)) else {}),
+        **({"artwork": files_digest(art, cfg.render.appearance.photos)} if (art := appearance_photos(cfg)) else {}),
     }
 
 

@@ -26,7 +26,7 @@ from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import consolidate, read_record
 from deformsim.errors import ResourceError, UserError
 from deformsim.generate.backend import disk_full, remove_partial_files
-from deformsim.generate.identity import input_digests, texture_photos
+from deformsim.generate.identity import appearance_photos, input_digests, texture_photos
 from deformsim.generate.local import run_local
 from deformsim.generate.probe import probe_mesh
 from deformsim.generate.refusals import check_part, check_probe, existing_dataset, n_samples
@@ -65,11 +65,13 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
         raise UserError(f"deform.sources uses the simulated bank, but spec '{spec.name}' declares no simulation "
                         "scenarios (set deform.sources.bank and .both to 0, or add simulation: to the spec)")
     hdris = list_hdris(cfg.lighting.hdri_dir)
-    for photo in texture_photos(cfg) or ():
-        try:
-            open_rgb(photo, min_size=(1, 1))  # Blender would fail on it mid-run
-        except UserError as exc:
-            raise UserError(f"render.surface.photos: {exc}") from None
+    for what, photos in (("render.surface.photos", texture_photos(cfg)), ("render.appearance.photos",
+                                                                          appearance_photos(cfg))):
+        for photo in photos or ():
+            try:
+                open_rgb(photo, min_size=(1, 1))  # Blender would fail on it mid-run
+            except UserError as exc:
+                raise UserError(f"{what}: {exc}") from None
     conflict = existing_dataset(cfg, out, spec)
     if conflict is not None and not overwrite:
         raise UserError(f"{out} {conflict}")
@@ -77,7 +79,9 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
         check_folder_target(out, "--out", replace=True)  # it is removed as a whole
         surface = cfg.render.surface
         check_apart(out, "--out", {"mesh": cfg.object.mesh, "spec": cfg.object.spec, "HDRI folder": cfg.lighting.hdri_dir,
-                                   "surface photo folder": surface.photos if surface is not None else None})
+                                   "surface photo folder": surface.photos if surface is not None else None,
+                                   "artwork photo folder": cfg.render.appearance.photos
+                                   if cfg.render.appearance is not None else None})
     _, hint = check_part_mesh(spec, cfg.object.mesh, cfg.object.spec)
     if hint:
         log.warning("mesh %s: %s", cfg.object.mesh, hint)
@@ -135,8 +139,8 @@ def generate(cfg: Config, out: str | Path, progress: bool = True,
     todo = [i for i in indices if read_record(layout, i) is None]
     if todo and cfg.deform.sources.uses_bank:
         bake(spec, cfg.object.spec, cfg.object.mesh, progress)  # once; cached for every later run
-    photos = texture_photos(cfg)
-    params = {i: sample_params(i, cfg.generate.seed, cfg, spec, hdris, photos) for i in todo}
+    photos, artwork = texture_photos(cfg), appearance_photos(cfg)
+    params = {i: sample_params(i, cfg.generate.seed, cfg, spec, hdris, photos, artwork) for i in todo}
     views = len(cfg.camera.azimuth_quadrants)
     log.info(
         "generate: %d images (%d samples x %d cameras), %d samples to render, %d already done",

@@ -4,18 +4,36 @@ A *sample* is one scene state (object deformation, openings, label, lighting) se
 it yields one image per camera. ``sample_params(i, seed, ...)`` depends only on ``(seed, i)``: samples can
 be drawn in any order, by any worker, and a resumed run draws the same ones. The package holds the parameter
 records (:mod:`~.params`, serialised by :mod:`~.records`), the lookup tables (:mod:`~.tables`), the photo folder
-read (:mod:`~.photos`), the draws (:mod:`~.sample`, :mod:`~.draws`) and the named random streams that sampling and
+reads (:mod:`~.photos`), the draws (:mod:`~.sample`, :mod:`~.draws`) and the named random streams that sampling and
 compositing draw from (:mod:`~.streams`).
 """
 
-from deformsim.sampling.draws import draw_drop, draw_framing, draw_lights, draw_source, draw_surface
-from deformsim.sampling.params import CameraParams, CanDesign, LightParams, MaterialParams, SampleParams, SurfaceParams
-from deformsim.sampling.photos import surface_photos
+from deformsim.sampling.draws import (
+    draw_appearance,
+    draw_drop,
+    draw_framing,
+    draw_lights,
+    draw_shape,
+    draw_source,
+    draw_surface,
+)
+from deformsim.sampling.params import (
+    AppearanceParams,
+    CameraParams,
+    CanDesign,
+    LightParams,
+    MaterialParams,
+    SampleParams,
+    ShapeParams,
+    SurfaceParams,
+)
+from deformsim.sampling.photos import artwork_photos, surface_photos
 from deformsim.sampling.sample import allowed_families, label_for, sample_params
-from deformsim.sampling.tables import BRAND_WORDS, CUT_SIDES, LIGHT_KINDS, SURFACE_COLOURS
+from deformsim.sampling.tables import BRAND_WORDS, CAN_SIZES, CUT_SIDES, LIGHT_KINDS, SURFACE_COLOURS
 
 __all__ = [
-    "BRAND_WORDS", "CUT_SIDES", "LIGHT_KINDS", "SURFACE_COLOURS", "CameraParams", "CanDesign", "LightParams",
-    "MaterialParams", "SampleParams", "SurfaceParams", "allowed_families", "draw_drop", "draw_framing", "draw_lights",
-    "draw_source", "draw_surface", "label_for", "sample_params", "surface_photos",
+    "BRAND_WORDS", "CAN_SIZES", "CUT_SIDES", "LIGHT_KINDS", "SURFACE_COLOURS", "AppearanceParams", "CameraParams",
+    "CanDesign", "LightParams", "MaterialParams", "SampleParams", "ShapeParams", "SurfaceParams", "allowed_families",
+    "artwork_photos", "draw_appearance", "draw_drop", "draw_framing", "draw_lights", "draw_shape", "draw_source",
+    "draw_surface", "label_for", "sample_params", "surface_photos",
 ]

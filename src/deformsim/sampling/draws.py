@@ -8,10 +8,10 @@ from dataclasses import replace
 import numpy as np
 
 from deformsim.config import Config
-from deformsim.sampling.params import CameraParams, LightParams, SurfaceParams
-from deformsim.sampling.photos import surface_photos
+from deformsim.sampling.params import AppearanceParams, CameraParams, LightParams, ShapeParams, SurfaceParams
+from deformsim.sampling.photos import artwork_photos, surface_photos
 from deformsim.sampling.streams import stream
-from deformsim.sampling.tables import CUT_SIDES, LIGHT_KINDS, SURFACE_COLOURS
+from deformsim.sampling.tables import CAN_SIZES, CUT_SIDES, LIGHT_KINDS, SURFACE_COLOURS
 from deformsim.spec.model import Spec
 
 
@@ -122,3 +122,55 @@ def draw_framing(index: int, seed: int, cfg: Config, cameras: tuple[CameraParams
             fstop = float(np.exp(np.log(c.fstop[0]) + (np.log(c.fstop[1]) - np.log(c.fstop[0])) * u[7]))
         out.append(replace(cam, fill=fill, shift_x=sx, shift_y=sy, cut=cut, cut_side=side, lens=lens, fstop=fstop))
     return tuple(out)
+
+
+def draw_shape(index: int, seed: int, cfg: Config, spec: Spec) -> ShapeParams | None:
+    """``object.shapes``: the part's shape. The built-in can takes a named size, or in a share ``continuous`` a
+    point drawn between two sizes (every dimension blended); any part then takes the scale, taper and bulge. Every
+    value is drawn for every part, so a change of one option moves no other draw."""
+    s = cfg.object.shapes
+    if s is None:
+        return None
+    rng = stream("shape", seed, index)
+    a, b = (s.sizes[int(rng.integers(len(s.sizes)))] for _ in range(2))
+    blend, t = bool(rng.uniform() < s.continuous), float(rng.uniform())
+    neck, dome = float(rng.uniform(*s.neck)), float(rng.uniform(*s.dome))
+    scale = tuple(float(rng.uniform(*r)) for r in s.scale)
+    taper, bulge = float(rng.uniform(*s.taper)), float(rng.uniform(*s.bulge))
+    if spec.builtin != "can":
+        return ShapeParams(size="", diameter=0.0, height=0.0, rim=1.0, neck=1.0, dome=1.0, scale=scale, taper=taper,
+                           bulge=bulge)
+    t = t if blend and a != b else 0.0
+    dims = {k: (1 - t) * CAN_SIZES[a][k] + t * CAN_SIZES[b][k] for k in CAN_SIZES[a]}
+    return ShapeParams(size=f"{a}~{b}" if t > 0 else a, diameter=dims["diameter"], height=dims["height"],
+                       rim=dims["rim"], neck=dims["neck"] * neck, dome=dims["dome"] * dome, scale=scale, taper=taper,
+                       bulge=bulge)
+
+
+def draw_appearance(index: int, seed: int, cfg: Config, spec: Spec,
+                    photos: list[str] | None = None) -> AppearanceParams | None:
+    """``render.appearance``: the sample's artwork style, photo and crop, metallic inks, gloss and ink roughness.
+    ``photos``: :func:`artwork_photos` of the config's folder (listed here when None and needed)."""
+    a = cfg.render.appearance
+    if a is None:
+        return None
+    rng = stream("appearance", seed, index)
+    u = rng.uniform(size=3)
+    design_seed = int(rng.integers(2**31))
+    crop = (float(rng.uniform()), float(rng.uniform()), float(rng.uniform(1.0, 2.0)))
+    gloss, roughness = float(rng.uniform(*a.gloss)), float(rng.uniform(*a.roughness))
+    pick = float(rng.uniform())
+    photo = ""
+    if a.photos is not None and u[0] < a.photo_share:
+        photos = photos if photos is not None else artwork_photos(a.photos)
+        photo = photos[min(int(pick * len(photos)), len(photos) - 1)]
+    can = spec.builtin == "can"
+    if photo:
+        style = "photo"
+    elif can and a.designer:
+        style = "bare" if u[1] < a.bare_share else "designer"
+    else:
+        style = "plain"
+    metallic = bool(can and style != "plain" and u[2] < a.metallic_share)
+    return AppearanceParams(style=style, seed=design_seed, metallic=metallic, photo=photo,
+                            crop=crop if photo else (0.0, 0.0, 1.0), gloss=gloss, roughness=roughness)

@@ -52,6 +52,35 @@ class MaterialParams(Record):
 
 
 @dataclass(frozen=True)
+class ShapeParams(Record):
+    """``object.shapes``: the part's drawn shape. The built-in can's nominal size and proportions (a named size, or
+    "A~B" for a blend of two), then the per-axis scale, taper and bulge any part takes."""
+
+    size: str  # a named size of config.CAN_SIZES, "A~B" between two, "" for a mesh
+    diameter: float  # mm: nominal body diameter (0 for a mesh)
+    height: float  # mm: nominal height (0 for a mesh)
+    rim: float  # rim radius over body radius
+    neck: float  # factor on the neck's height
+    dome: float  # factor on the bottom dome's depth
+    scale: tuple[float, float, float]  # factors on x, y, z
+    taper: float  # x, y scale by 1 + taper * (2 h - 1) at height share h
+    bulge: float  # x, y scale by 1 + bulge * sin(pi h)
+
+
+@dataclass(frozen=True)
+class AppearanceParams(Record):
+    """``render.appearance``: what is printed on the part and how it shines."""
+
+    style: str  # can: "designer" | "bare" (bare-metal body) | "plain" (the old label) | "photo"; mesh: "photo" | "plain"
+    seed: int  # the designer's layout, graphics and text
+    metallic: bool  # some inks are metallic (silver shows through)
+    photo: str  # style photo: the artwork's path
+    crop: tuple[float, float, float]  # photo: left and top of the crop (shares of the room), zoom (>= 1)
+    gloss: float  # clear-coat weight
+    roughness: float  # ink roughness (can)
+
+
+@dataclass(frozen=True)
 class LightParams(Record):
     """One area light (``lighting.area_lights``), placed on a sphere around the part's centre and aimed at it.
     Lengths are metres for the built-in can and scale with the part, like :attr:`CameraParams.radius`."""
@@ -108,6 +137,8 @@ class SampleParams(Record):
     drop_rotation: tuple[float, ...] = ()  # pose.mode drop: start orientation (unit quaternion w, x, y, z); () = tilt
     lights: tuple[LightParams, ...] = ()  # lighting.area_lights: the sample's area lights; () = HDRI only
     surface: SurfaceParams | None = None  # render.surface: the ground the part rests on; None = no surface scene
+    shape: ShapeParams | None = optional(None)  # object.shapes: the part's drawn shape; None = as built
+    appearance: AppearanceParams | None = optional(None)  # render.appearance: artwork and finish; None = off
 
     @property
     def deformed(self) -> bool:

@@ -6,7 +6,15 @@ import numpy as np
 
 from deformsim.config import Config
 from deformsim.errors import UserError
-from deformsim.sampling.draws import draw_drop, draw_framing, draw_lights, draw_source, draw_surface
+from deformsim.sampling.draws import (
+    draw_appearance,
+    draw_drop,
+    draw_framing,
+    draw_lights,
+    draw_shape,
+    draw_source,
+    draw_surface,
+)
 from deformsim.sampling.params import CameraParams, CanDesign, MaterialParams, SampleParams
 from deformsim.sampling.streams import stream
 from deformsim.sampling.tables import BRAND_WORDS
@@ -33,9 +41,10 @@ def allowed_families(cfg: Config, spec: Spec) -> list[int]:
 
 
 def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[str],
-                  photos: list[str] | None = None) -> SampleParams:
+                  photos: list[str] | None = None, artwork: list[str] | None = None) -> SampleParams:
     """Draw sample ``index`` of a run seeded ``seed``. ``hdris`` are the available HDRI names; ``photos``: the
-    surface texture photos (:func:`surface_photos`; listed here when None and the config uses them)."""
+    surface texture photos (:func:`surface_photos`), ``artwork``: the appearance photos (:func:`artwork_photos`;
+    each listed here when None and the config uses them)."""
     if not hdris:
         raise ValueError("no HDRI available")
     rng = stream("sample", seed, index)
@@ -138,4 +147,6 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
         drop_rotation=draw_drop(index, seed, cfg.pose.drop_upright) if cfg.pose.mode == "drop" else (),
         lights=draw_lights(index, seed, cfg, cameras),
         surface=draw_surface(index, seed, cfg, photos),
+        shape=draw_shape(index, seed, cfg, spec),
+        appearance=draw_appearance(index, seed, cfg, spec, artwork),
     )

@@ -1,4 +1,4 @@
-"""The lookup tables the draws pick from: area light geometry, surface colours, brand words, cut sides."""
+"""The lookup tables the draws pick from: area light geometry, surface colours, brand words, cut sides, can sizes."""
 
 from __future__ import annotations
 
@@ -25,3 +25,16 @@ SURFACE_COLOURS = {
 BRAND_WORDS = ("FIZZ", "COLA", "ZEST", "NOVA", "LIME", "BOLT", "AURA", "PEAK", "WAVE", "SODA", "BREW", "MAX")
 
 CUT_SIDES = ("left", "right", "top", "bottom")
+
+# The built-in can's named sizes (config.CAN_SIZES): nominal body diameter and height (mm, real cans), rim radius over
+# body radius (the neck's taper: slim and sleek cans have nearly flush ends), neck height and dome depth factors.
+# standard355 is the can as built (66.0 x 122.0 mm); every size is mapped by its ratios to standard355's nominal.
+CAN_SIZES = {
+    "slim250": {"diameter": 53.0, "height": 134.0, "rim": 0.94, "neck": 0.7, "dome": 1.0},
+    "sleek330": {"diameter": 58.0, "height": 146.0, "rim": 0.93, "neck": 0.75, "dome": 1.0},
+    "standard330": {"diameter": 66.0, "height": 115.0, "rim": 0.8773, "neck": 1.0, "dome": 1.0},
+    "standard355": {"diameter": 66.2, "height": 122.2, "rim": 0.8773, "neck": 1.0, "dome": 1.0},
+    "tall473": {"diameter": 66.0, "height": 157.0, "rim": 0.8773, "neck": 1.0, "dome": 1.0},
+    "tall500": {"diameter": 66.0, "height": 168.0, "rim": 0.8773, "neck": 1.0, "dome": 1.0},
+    "tall568": {"diameter": 66.0, "height": 184.0, "rim": 0.8773, "neck": 1.0, "dome": 1.0},
+}

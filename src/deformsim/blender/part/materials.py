@@ -1,7 +1,10 @@
 """Materials: the can's printed label and brushed aluminium, and randomised user-mesh surfaces.
 
 Everything is created once and updated in place on later calls, so memory stays bounded over thousands
-of samples: one label image ("LabelImage") whose pixels are overwritten, one material per role.
+of samples: one label image ("LabelImage") whose pixels are overwritten, one material per role. With
+``render.appearance`` (:func:`enable_appearance`) the label also gets a finish image ("LabelFinish": where the
+metal shows) driving its metallic and roughness, and a user mesh's material a box-projected texture photo
+("ObjectTexture"), each overwritten per sample too.
 """
 
 from __future__ import annotations
@@ -10,7 +13,8 @@ import bpy
 import numpy as np
 
 from deformsim.blender.part.can_label import make_label
-from deformsim.sampling import CanDesign, MaterialParams
+from deformsim.blender.part.label_art import _photo_pixels, make_artwork
+from deformsim.sampling import AppearanceParams, CanDesign, MaterialParams
 from deformsim.spec.model import Material
 
 LABEL_IMAGE = "LabelImage"
@@ -29,6 +33,12 @@ FOLD_DARKEN = 0.3  # base colour factor in a full fold
 BARE = {"Base Color": (0.8, 0.8, 0.82, 1.0), "Metallic": 1.0, "Roughness": 0.45, "Coat Weight": 0.0}
 SCUFF_SCALE = 350.0  # noise scale (per metre, object space) breaking the ridge mask into scuffs
 _creases = False  # set by enable_creases: OBJECT_MATERIAL gets the layer when it is created
+FINISH_IMAGE = "LabelFinish"  # render.appearance: 1 where the label shows metal (bare or metallic ink)
+TEXTURE_IMAGE = "ObjectTexture"  # render.appearance: a user mesh's texture photo
+INK_METALLIC, METAL_ROUGHNESS = 0.2, 0.22  # printed basecoat and ink; bare or metallic-inked aluminium
+TEXTURE_SIZE = 512
+_appearance = False  # set by enable_appearance: OBJECT_MATERIAL gets the texture photo when it is created
+_part_size = 1.0  # metres: the user mesh's largest dimension (the texture's projection scale)
 
 
 def _material(name: str) -> tuple[bpy.types.Material, bool]:
@@ -150,14 +160,81 @@ def enable_creases(obj: bpy.types.Object, enabled: bool = True) -> None:
             add_creases(mat, ridges=mat.name != "Aluminium")
 
 
-def label_image(width: int = 512, height: int = 256) -> bpy.types.Image:
-    """The one label image, created on first use (8-bit sRGB) and resized in place when asked."""
-    img = bpy.data.images.get(LABEL_IMAGE)
+def label_image(width: int = 512, height: int = 256, name: str = LABEL_IMAGE) -> bpy.types.Image:
+    """The one label image (or the image ``name``), created on first use (8-bit sRGB) and resized in place when
+    asked."""
+    img = bpy.data.images.get(name)
     if img is None:
-        img = bpy.data.images.new(LABEL_IMAGE, width, height, alpha=True)
+        img = bpy.data.images.new(name, width, height, alpha=True)
     elif tuple(img.size) != (width, height):
         img.scale(width, height)
     return img
+
+
+def _write(img: bpy.types.Image, pixels: np.ndarray) -> None:
+    """Overwrite ``img``'s pixels (row 0 = top) in place and make Cycles reload them."""
+    img.pixels.foreach_set(np.ascontiguousarray(pixels[::-1]).ravel())  # Blender rows go bottom-up
+    img.update()
+    img.update_tag()
+    # Cycles with persistent data keeps an image it has loaded until the image's parameters change; the
+    # images are opaque, so flipping the (unused) alpha mode makes it reload the new pixels at no cost.
+    img.alpha_mode = "NONE" if img.alpha_mode == "STRAIGHT" else "STRAIGHT"
+
+
+def enable_appearance(obj: bpy.types.Object, on: bool = True) -> None:
+    """Switch ``render.appearance`` on: once per process, after the object is built and before the crease layer.
+
+    The can's "Label" gets the finish image: metallic and roughness mix from the ink's (the basecoat's metallic,
+    the drawn roughness) to bare aluminium's where the finish is 1. A user mesh's material gets the texture photo
+    when :func:`apply_material` creates it. Off, no material is touched."""
+    global _appearance, _part_size
+    _appearance = on
+    if not on:
+        return
+    co = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    _part_size = float((co.max(0) - co.min(0)).max()) if len(co) else 1.0
+    label = obj.data.materials.get("Label") if obj.data.materials else None
+    if label is None or FINISH_IMAGE in label.node_tree.nodes:
+        return
+    nodes, links = label.node_tree.nodes, label.node_tree.links
+    bsdf = _bsdf(label)
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.name = FINISH_IMAGE
+    tex.image = label_image(name=FINISH_IMAGE)
+    tex.image.colorspace_settings.name = "Non-Color"
+    tex.interpolation = "Closest"  # a mask: no blur of metal into ink
+    links.new(nodes[LABEL_IMAGE].inputs["Vector"].links[0].from_socket, tex.inputs["Vector"])
+    for name, ink, metal in (("Metallic", INK_METALLIC, 1.0), ("Roughness", 0.3, METAL_ROUGHNESS)):
+        mix = nodes.new("ShaderNodeMix")
+        mix.name = FINISH_IMAGE + name
+        mix.data_type = "FLOAT"
+        _socket(mix.inputs, "A_Float").default_value = ink
+        _socket(mix.inputs, "B_Float").default_value = metal
+        links.new(tex.outputs["Color"], _socket(mix.inputs, "Factor_Float"))
+        links.new(_socket(mix.outputs, "Result_Float"), bsdf.inputs[name])
+
+
+def _texture_nodes(mat: bpy.types.Material, bsdf: bpy.types.Node) -> None:
+    """A box-projected photo (object coordinates) mixed over the drawn colour by a 0/1 factor set per sample; the mix
+    is the Base Color's entry, so :func:`_set` writes the drawn colour to its A input."""
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    coord = nodes.new("ShaderNodeTexCoord")
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.name = TEXTURE_IMAGE + "Mapping"
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.name = TEXTURE_IMAGE
+    tex.image = label_image(TEXTURE_SIZE, TEXTURE_SIZE, TEXTURE_IMAGE)
+    tex.projection, tex.projection_blend, tex.extension = "BOX", 0.25, "MIRROR"
+    links.new(coord.outputs["Object"], mapping.inputs["Vector"])
+    links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    mix = nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.name = CREASE_IN + "Base Color"
+    _socket(mix.inputs, "A_Color").default_value = bsdf.inputs["Base Color"].default_value
+    links.new(tex.outputs["Color"], _socket(mix.inputs, "B_Color"))
+    links.new(_socket(mix.outputs, "Result_Color"), bsdf.inputs["Base Color"])
 
 
 def can_materials(obj: bpy.types.Object) -> None:
@@ -186,30 +263,57 @@ def can_materials(obj: bpy.types.Object) -> None:
     mats.append(alu)
 
 
-def set_label(design: CanDesign, width: int = 512, height: int = 256) -> None:
-    """Print ``design`` into the shared "LabelImage" (pixels overwritten; no new image per sample)."""
-    img = label_image(width, height)
-    pixels = np.ascontiguousarray(make_label(design, width, height)[::-1])  # Blender rows go bottom-up
-    img.pixels.foreach_set(pixels.ravel())
-    img.update()
-    img.update_tag()
-    # Cycles with persistent data keeps an image it has loaded until the image's parameters change; the
-    # label is opaque, so flipping the (unused) alpha mode makes it reload the new pixels at no cost.
-    img.alpha_mode = "NONE" if img.alpha_mode == "STRAIGHT" else "STRAIGHT"
+def set_label(design: CanDesign, width: int = 512, height: int = 256, look: AppearanceParams | None = None,
+              aspect: float = 1.0) -> None:
+    """Print ``design`` into the shared "LabelImage" (pixels overwritten; no new image per sample). With ``look``
+    (``render.appearance``, after :func:`enable_appearance`) the artwork of :mod:`~.label_art` for a label ``aspect``
+    times taller than the built can's, its finish into "LabelFinish" and the drawn gloss and ink roughness."""
+    if look is None:
+        _write(label_image(width, height), make_label(design, width, height))
+        return
+    rgba, metal = make_artwork(design, look, width, height, aspect)
+    _write(label_image(width, height), rgba)
+    _write(label_image(width, height, FINISH_IMAGE), np.repeat(metal[..., None], 4, axis=2))
+    label = bpy.data.materials["Label"]
+    _set(_bsdf(label), {"Coat Weight": look.gloss})
+    _socket(label.node_tree.nodes[FINISH_IMAGE + "Roughness"].inputs, "A_Float").default_value = look.roughness
 
 
-def apply_material(obj: bpy.types.Object, spec_material: Material, params: MaterialParams) -> None:
-    """Give a user mesh its one material: ``spec_material.kind`` with ``params`` colour and roughness."""
+def apply_material(obj: bpy.types.Object, spec_material: Material, params: MaterialParams,
+                   look: AppearanceParams | None = None) -> None:
+    """Give a user mesh its one material: ``spec_material.kind`` with ``params`` colour and roughness; with ``look``
+    (``render.appearance``) its texture photo (or none) and gloss."""
     mat, new = _material(OBJECT_MATERIAL)
     bsdf = _bsdf(mat)
     if new:
         _bump(mat, bsdf, 1200.0, 0.02)
+        if _appearance:
+            _texture_nodes(mat, bsdf)
     if _creases:
         add_creases(mat)
     _set(bsdf, {**_KINDS[spec_material.kind], "Base Color": (*params.color, 1.0), "Roughness": params.roughness,
                 "Coat Roughness": 0.1})
+    if look is not None and TEXTURE_IMAGE in mat.node_tree.nodes:
+        _set_texture(mat, bsdf, look)
     mats = obj.data.materials
     if list(mats) != [mat]:
         mats.clear()
         mats.append(mat)
         obj.data.polygons.foreach_set("material_index", np.zeros(len(obj.data.polygons), np.int32))
+
+
+def _set_texture(mat: bpy.types.Material, bsdf: bpy.types.Node, look: AppearanceParams) -> None:
+    """The sample's texture photo (zoomed and shifted by its crop) over the part, or the drawn colour alone; gloss."""
+    nodes = mat.node_tree.nodes
+    entry = nodes[CREASE_IN + "Base Color"]
+    _socket(entry.inputs, "Factor_Float").default_value = 1.0 if look.photo else 0.0
+    if look.photo:
+        from PIL import Image
+
+        px = Image.fromarray((_photo_pixels(look.photo) * 255 + 0.5).astype(np.uint8))
+        px = np.asarray(px.resize((TEXTURE_SIZE, TEXTURE_SIZE), Image.BILINEAR), np.float32) / 255
+        _write(bpy.data.images[TEXTURE_IMAGE], np.concatenate([px, np.ones((*px.shape[:2], 1), np.float32)], axis=2))
+        mapping = nodes[TEXTURE_IMAGE + "Mapping"]
+        mapping.inputs["Scale"].default_value = (look.crop[2] / _part_size,) * 3
+        mapping.inputs["Location"].default_value = (look.crop[0], look.crop[1], 0.0)
+    _set(bsdf, {"Coat Weight": look.gloss})

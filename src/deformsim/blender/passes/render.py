@@ -1,4 +1,4 @@
-"""Render one sample: set the rig, pose, label or material, world and cameras; write rgba, black and green PNGs.
+"""Render one sample: set the shape, rig, pose, label or material, world and cameras; write rgba, black and green PNGs.
 
 ``rgba`` is Cycles' exact-alpha render (transparent film). ``black`` and ``green`` are composited over it
 in 8-bit straight alpha (rgb*a + C*(1-a)), or, with ``render.render_backgrounds``, rendered by Cycles with
@@ -45,6 +45,10 @@ def apply_state(ctx: RenderContext, p: SampleParams) -> tuple[float, float, floa
     """Put the scene in sample ``p``'s state (deformation, pose, openings, materials, lighting and every active
     feature's); return the point the cameras aim at (the rest bounding-box centre, or where a feature placed the
     part: with ``pose.mode`` drop the resting part's)."""
+    if p.shape is not None:  # first: the rig, the pose and every feature work on the shaped part
+        if ctx.shaper is None:
+            raise ValueError(f"sample {p.index} has a shape, the worker's config no object.shapes")
+        ctx.target, ctx.ground = ctx.shaper.apply(p.shape)
     ctx.rig.set(p.keys, p.displacement, p.seal, p.tab, p.bank, p.bank_amount)
     # after the rig: a dropped part's deformed shape decides how it comes to rest
     placed = [t for f in ctx.features if (t := f.place(p)) is not None]
@@ -55,9 +59,10 @@ def apply_state(ctx: RenderContext, p: SampleParams) -> tuple[float, float, floa
         ctx.pivot.location = ctx.target
         set_pose(ctx.pivot, p.pose_tilt, p.pose_axis)
     if p.design is not None:
-        materials.set_label(p.design)
+        aspect = ctx.shaper.label_aspect if ctx.shaper is not None else 1.0
+        materials.set_label(p.design, look=p.appearance, aspect=aspect)
     if p.material is not None:
-        materials.apply_material(ctx.obj, ctx.spec.material, p.material)
+        materials.apply_material(ctx.obj, ctx.spec.material, p.material, p.appearance)
     ctx.world.set(p.hdri, p.hdri_rotation, p.hdri_strength)
     for f in ctx.features:
         f.apply(p, target)

@@ -1,0 +1,130 @@
+"""Shape families (object.shapes) and printed appearance (render.appearance): draws from streams of their own,
+deterministic per seed, recorded in the manifest, off by default. Pure: no Blender."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from deformsim.config import load_config
+from deformsim.dataset.layout import Layout
+from deformsim.dataset.manifest import rows_for
+from deformsim.dataset.rendered import Rendered
+from deformsim.errors import UserError
+from deformsim.generate.identity import data_name, input_digests
+from deformsim.sampling import CAN_SIZES, sample_params
+from deformsim.spec.model import load_spec
+
+HDRIS = ["city", "studio"]
+ON = {"object.shapes": {}, "render.appearance": {}}
+
+
+@pytest.fixture(scope="module")
+def spec():
+    return load_spec()
+
+
+def test_off_by_default_and_on_moves_no_other_draw(spec):
+    off, on = load_config("quick"), load_config("quick", ON)
+    for i in range(20):
+        a, b = sample_params(i, 4, off, spec, HDRIS), sample_params(i, 4, on, spec, HDRIS)
+        assert a.shape is None and a.appearance is None
+        assert "shape" not in a.to_dict() and "appearance" not in a.to_dict(), "records of old runs stay as they were"
+        assert dataclasses.replace(b, shape=None, appearance=None) == a
+        assert b.shape is not None and b.appearance is not None
+
+
+def test_draws_are_deterministic_per_seed_and_vary_per_sample(spec):
+    cfg = load_config("quick", ON)
+    first = [sample_params(i, 7, cfg, spec, HDRIS) for i in range(30)]
+    again = [sample_params(i, 7, cfg, spec, HDRIS) for i in range(30)]
+    other = [sample_params(i, 8, cfg, spec, HDRIS) for i in range(30)]
+    assert first == again
+    assert [p.shape for p in first] != [p.shape for p in other]
+    assert len({p.appearance.seed for p in first}) == 30
+    assert {p.appearance.style for p in first} <= {"designer", "bare"}
+    for p in first:
+        assert type(p).from_dict(p.to_dict()) == p
+
+
+def test_named_sizes_and_continuous_blends(spec):
+    exact = load_config("quick", {"object.shapes": {"sizes": ["slim250", "tall568"], "continuous": 0.0}})
+    shapes = [sample_params(i, 1, exact, spec, HDRIS).shape for i in range(40)]
+    assert {s.size for s in shapes} == {"slim250", "tall568"}
+    for s in shapes:
+        assert (s.diameter, s.height) == (CAN_SIZES[s.size]["diameter"], CAN_SIZES[s.size]["height"])
+    blend = load_config("quick", {"object.shapes": {"continuous": 1.0, "neck": [0.8, 1.2]}})
+    shapes = [sample_params(i, 1, blend, spec, HDRIS).shape for i in range(60)]
+    mixed = [s for s in shapes if "~" in s.size]
+    assert len(mixed) > 40, "pairs of one size drawn twice stay that size"
+    for s in mixed:
+        a, b = (CAN_SIZES[n] for n in s.size.split("~"))
+        assert min(a["height"], b["height"]) <= s.height <= max(a["height"], b["height"])
+        assert min(a["diameter"], b["diameter"]) <= s.diameter <= max(a["diameter"], b["diameter"])
+    assert min(s.neck for s in shapes) < 0.9 and max(s.neck for s in shapes) > 1.0
+
+
+def test_manifest_records_the_drawn_shape_and_appearance(spec, tmp_path):
+    cfg = load_config("quick", ON)
+    p = sample_params(3, 2, cfg, spec, HDRIS)
+    rendered = Rendered(index=3, render_seconds=[0.1] * 4, kinds=(), sample_columns={}, image_columns=[])
+    rows = rows_for(p, Layout(tmp_path), rendered)
+    assert rows[0]["shape_size"] == p.shape.size and rows[0]["shape_height_mm"] == p.shape.height
+    assert rows[0]["shape_scale_z"] == p.shape.scale[2] and rows[0]["shape_bulge"] == p.shape.bulge
+    assert rows[0]["appearance_style"] == p.appearance.style
+    assert rows[0]["appearance_gloss"] == p.appearance.gloss
+    plain = rows_for(sample_params(3, 2, load_config("quick"), spec, HDRIS), Layout(tmp_path), rendered)
+    assert not any(k.startswith(("shape_", "appearance_")) for k in plain[0]), "manifests without them as they were"
+
+
+def test_identity_covers_the_settings_and_the_artwork_photos(spec, tmp_path):
+    base = load_config("quick")
+    names = {data_name(base, spec)}
+    names.add(data_name(load_config("quick", {"object.shapes": {}}), spec))
+    names.add(data_name(load_config("quick", {"object.shapes": {"sizes": ["slim250"]}}), spec))
+    names.add(data_name(load_config("quick", {"render.appearance": {}}), spec))
+    photos = tmp_path / "art"
+    photos.mkdir()
+    Image.fromarray(np.full((8, 8, 3), 90, np.uint8)).save(photos / "a.png")
+    cfg = load_config("quick", {"render.appearance": {"photos": str(photos)}})
+    names.add(data_name(cfg, spec))
+    assert "artwork" in input_digests(cfg, spec)
+    Image.fromarray(np.full((8, 8, 3), 91, np.uint8)).save(photos / "a.png")
+    names.add(data_name(cfg, spec))
+    assert len(names) == 6
+    assert "artwork" not in input_digests(base, spec)
+
+
+def test_photos_are_drawn_for_the_can_and_a_mesh(tmp_path):
+    for name in ("b.png", "a.jpg"):
+        Image.fromarray(np.full((8, 8, 3), 50, np.uint8)).save(tmp_path / name)
+    cfg = load_config("quick", {"render.appearance": {"photos": str(tmp_path), "photo_share": 1.0}})
+    looks = [sample_params(i, 0, cfg, load_spec(), HDRIS).appearance for i in range(10)]
+    assert {a.style for a in looks} == {"photo"}
+    assert {a.photo for a in looks} == {str(tmp_path / "a.jpg"), str(tmp_path / "b.png")}
+    assert all(0 <= a.crop[0] <= 1 and 1 <= a.crop[2] <= 2 for a in looks)
+
+
+@pytest.mark.parametrize("overrides, words", [
+    ({"object.shapes": {"sizes": ["huge"]}}, "object.shapes"),
+    ({"object.shapes": {"scale": [[1, 1], [0, 1], [1, 1]]}}, "object.shapes.scale"),
+    ({"object.shapes": {"taper": [-2, 0]}}, "object.shapes.taper"),
+    ({"object.shapes": {"continuous": 1.5}}, "object.shapes"),
+    ({"render.appearance": {"gloss": [0.2, 3]}}, "render.appearance.gloss"),
+    ({"render.appearance": {"metallic_share": -1}}, "render.appearance"),
+])
+def test_bad_values_give_one_line(overrides, words):
+    with pytest.raises(UserError) as exc:
+        load_config("quick", overrides)
+    assert words in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_a_missing_or_empty_photo_folder_gives_one_line(spec, tmp_path):
+    for folder in (tmp_path / "missing", tmp_path):
+        cfg = load_config("quick", {"render.appearance": {"photos": str(folder)}})
+        with pytest.raises(UserError) as exc:
+            input_digests(cfg, spec)
+        assert "render.appearance.photos" in str(exc.value) and "\n" not in str(exc.value)
