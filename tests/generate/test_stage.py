@@ -145,7 +145,11 @@ def test_bad_input_fails_before_any_output(tmp_path):
                               ({"render.surface": {"kinds": ["photo"], "photos": str(tmp_path / "none")}},
                                "render.surface.photos: .* is not a folder"),
                               ({"render.surface": {"kinds": ["photo"], "photos": str(tmp_path / "bad")}},
-                               "render.surface.photos: cannot read image .*broken.jpg")]:
+                               "render.surface.photos: cannot read image .*broken.jpg"),
+                              ({"render.appearance": {"photos": str(tmp_path / "none")}},
+                               "render.appearance.photos: .* is not a folder"),
+                              ({"render.appearance": {"photos": str(tmp_path / "bad")}},
+                               "render.appearance.photos: cannot read image .*broken.jpg")]:
         with pytest.raises(UserError, match=needle):
             generate(load_config("quick", {**TINY, **overrides}), out, progress=False)
     assert not out.exists()

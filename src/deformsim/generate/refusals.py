@@ -103,7 +103,8 @@ def existing_dataset(cfg: Config, out: Path, spec: Spec) -> str | None:
     for name, what in (("renderer", "renderer revision"), ("mesh", f"mesh {cfg.object.mesh}"),
                        ("spec", f"spec {cfg.object.spec or '(built-in)'}"),
                        ("hdri", f"HDRI folder {cfg.lighting.hdri_dir}"),
-                       ("surface", f"surface photo folder {cfg.render.surface and cfg.render.surface.photos}")):
+                       ("surface", f"surface photo folder {cfg.render.surface and cfg.render.surface.photos}"),
+                       ("artwork", f"artwork photo folder {cfg.render.appearance and cfg.render.appearance.photos}")):
         if recorded["inputs"].get(name) != now.get(name):
             was, new_hash = (recorded["inputs"].get(name) or "none")[:12], (now.get(name) or "none")[:12]
             return (f"was rendered from other contents of its {what} (sha256 {was}... there, {new_hash}... now): "
