@@ -97,3 +97,19 @@ def test_the_report_section_escapes_names_and_a_foreign_file_is_refused(tmp_path
     (tmp_path / "g.json").write_text(json.dumps({**results, "kind": "sim2real"}))
     with pytest.raises(UserError, match="is not a deformsim few-shot result"):
         read_results(tmp_path / "g.json")
+
+
+@pytest.mark.torch
+def test_the_unadapted_curve_scores_as_evaluate_does_with_test_time_crop_and_flip(tiny, tmp_path):
+    from deformsim.config import TrainConfig
+    from deformsim.evaluate.experiments import evaluate_model
+    from deformsim.learn.finetune import Recipe
+    from deformsim.learn.train import fit
+
+    _, real = tiny
+    cfg = TrainConfig(weights="offline", image_size=32, epochs=1, batch_size=16, tta_flip=True, crop="saliency")
+    model = fit(make_blobs(tmp_path / "syn", 10), cfg, tmp_path / "model", progress=False).model_path
+    results = run_fewshot(real, model, tmp_path / "out", (0,), draws=1, seeds=1, recipe=Recipe(**QUICK), progress=False)
+    shutil.copytree(real, tmp_path / "unique", ignore=shutil.ignore_patterns("copy.png"))  # as fewshot counts them
+    expected = evaluate_model(model, real_dir=tmp_path / "unique")["metrics"]["accuracy"]
+    assert results["curves"]["synthetic"][0]["accuracy"] == pytest.approx(expected)

@@ -15,10 +15,11 @@ asserted). Two curves, on the same draws:
 
 Every photo's stem activations come from the feature cache; its augmented views (image-level, computed once per
 photo and shared by all draws) and, with ``part="head"`` (the default), their pooled features are computed once
-per model, so a run trains the head alone in about a second on a CPU. Per k and curve: mean accuracy and F1
-over the runs with a 95 % percentile-bootstrap interval of that mean over the draws, each draw the mean of its
-seeds (one run at k = 0: the interval over the photos, Wilson's and a bootstrap's). This is the only place where
-real labels train anything, and only inside this cross-validation.
+per model, so a run trains the head alone in about a second on a CPU. Photos are seen as the model's test-time
+``crop`` shows them and scored with its ``tta_flip``, as ``evaluate`` scores them. Per k and curve: mean accuracy
+and F1 over the runs with a 95 % percentile-bootstrap interval of that mean over the draws, each draw the mean of
+its seeds (one run at k = 0: the interval over the photos, Wilson's and a bootstrap's). This is the only place
+where real labels train anything, and only inside this cross-validation.
 """
 
 from __future__ import annotations
@@ -168,8 +169,15 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
         fresh, weights["imagenet"] = build(cfg.model_copy(update={"feature_norm": False}))
         models["imagenet"] = fresh.to(device)
     paths = list(table["path"])
-    views = photo_views(trained, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress)
+    views = photo_views(trained, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress, cfg.crop)
     inputs = {c: part_inputs(m, views, recipe.part, cfg.batch_size) for c, m in models.items()}
+    scored = {c: [x[0]] for c, x in inputs.items()}  # what is scored: the plain image, and its mirror with tta_flip
+    if cfg.tta_flip:
+        from deformsim.learn.features import cached_stem
+
+        mirrored = cached_stem(trained, paths, cfg.image_size, cfg.batch_size, progress, cfg.crop, True)
+        for c, m in models.items():
+            scored[c].append(part_inputs(m, mirrored, recipe.part, cfg.batch_size))
     trains = {c: m.head if recipe.part == "head" else m for c, m in models.items()}  # reset before each run
     starts = {c: {k: v.clone() for k, v in m.state_dict().items()} for c, m in trains.items()}
     mix = None
@@ -182,10 +190,11 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
     lrs = {"synthetic": recipe.lr, "imagenet": cfg.lr}
 
     def score(curve: str, rows: np.ndarray) -> dict:
-        net, x = models[curve].eval(), inputs[curve][0, torch.as_tensor(rows, dtype=torch.long)]  # plain views
+        net, pick = models[curve].eval(), torch.as_tensor(rows, dtype=torch.long)
         with torch.no_grad():
-            logits = torch.cat([part_logits(net, b.to(device), recipe.part) for b in x.split(cfg.batch_size)])
-        return compute_metrics(y[rows], torch.sigmoid(logits).cpu().double().numpy(), cfg.threshold)
+            prob = torch.stack([torch.cat([torch.sigmoid(part_logits(net, b.to(device), recipe.part)).cpu()
+                                           for b in x[pick].split(cfg.batch_size)]) for x in scored[curve]]).mean(0)
+        return compute_metrics(y[rows], prob.double().numpy(), cfg.threshold)
 
     runs: list[dict] = []
     repeats = {c: seeds if c != "unadapted" else 1 for c in models}  # the unadapted model draws nothing

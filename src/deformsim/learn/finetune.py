@@ -69,15 +69,16 @@ def check_unseen(model: str | Path, paths: Iterable[str | Path]) -> None:
 
 
 def photo_views(model: DeformNet, paths: list[str], size: int, views: int, seed: int, batch_size: int,
-                progress: bool = False) -> torch.Tensor:
-    """Stem activations (1 + views, N, C, H, W) of each photo: its plain image (cached), then augmented views
-    (drawn from torch's RNG seeded by ``seed``, the caller's RNG left as it was)."""
+                progress: bool = False, crop: str = "none") -> torch.Tensor:
+    """Stem activations (1 + views, N, C, H, W) of each photo as the model's test-time ``crop`` shows it: its plain
+    image (cached), then augmented views (drawn from torch's RNG seeded by ``seed``, the caller's RNG left as it
+    was)."""
     from deformsim.learn.data import ImageSet, augmenter
     from deformsim.learn.features import cached_stem
 
-    out = [cached_stem(model, paths, size, batch_size, progress)]
+    out = [cached_stem(model, paths, size, batch_size, progress, crop)]
     if views:
-        images = ImageSet(paths, size)
+        images = ImageSet(paths, size, crop=crop)
         plain = [images[i] for i in range(len(paths))]
         augment = augmenter(size)
         was_training = model.training
@@ -192,7 +193,7 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     net, cfg = checkpoint.restore(ckpt, path)
     net.to(pick_device(cfg.device))
     paths = list(photos["path"])
-    views = photo_views(net, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress)
+    views = photo_views(net, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress, cfg.crop)
     stems = None
     if synthetic is not None:
         from deformsim.learn.features import cached_stem
