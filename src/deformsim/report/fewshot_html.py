@@ -9,10 +9,11 @@ from deformsim.report.figures import data_uri, fewshot_png
 
 
 def _cell(row: dict | None, key: str) -> str:
+    cls = " class=grp" if key == "accuracy" else ""  # each curve's first column
     if row is None:
-        return "<td>—</td>"
+        return f"<td{cls}>—</td>"
     lo, hi = row[f"{key}_interval"]
-    return f"<td>{100 * row[key]:.1f}%<span class=ci>{100 * lo:.1f}–{100 * hi:.1f}%</span></td>"
+    return f"<td{cls}>{100 * row[key]:.1f}%<span class=ci>{100 * lo:.1f}–{100 * hi:.1f}%</span></td>"
 
 
 def fewshot_section(results: dict | None) -> str:
@@ -32,9 +33,10 @@ def fewshot_section(results: dict | None) -> str:
         "<h2>Few-shot adaptation with real photos</h2><p class=note>"
         f"k labelled photos of each class drawn from <code>{escape(str(results['real_dir']))}</code> "
         f"({photos['intact']} intact, {photos['deformed']} deformed); the model <code>{escape(str(results['model']))}"
-        "</code> adapted on them, and the same backbone with ImageNet weights only trained on them alone; both "
-        f"scored on the remaining photos, over {results['draws']} draws × {results['seeds']} seeds per k. Mean and "
-        "95 % bootstrap interval of the mean over the draws (k = 0: the model as it is, the interval over the photos). "
+        "</code> adapted on them, the model as it is, and the same backbone with ImageNet weights only trained on "
+        f"them alone; all scored on the remaining photos, over {results['draws']} draws × {results['seeds']} seeds "
+        "per k. Mean and 95 % bootstrap interval of the mean over the draws (k = 0: the model as it is, the interval "
+        "over the photos). "
         "Majority class: the share of the commoner label among the photos scored at that k.</p>"
         f'<div class=scroll><table class="t2"><tr><th rowspan="2">k per class</th>{head}'
         f'<th rowspan="2" class="grp">majority class</th></tr><tr>{sub}</tr>{rows}'
