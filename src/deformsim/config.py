@@ -504,9 +504,10 @@ class TrainConfig(_Model):
     tta_flip: bool = Field(
         False, description="test time: average the prediction of each image and its mirror image"
     )
-    crop: Literal["none", "saliency"] = Field(
-        "none", description="test time: none, or crop each image to a square around its most salient region (the "
-        "part, found by spectral-residual saliency) before classifying; training images are not cropped"
+    crop: Literal["none", "saliency", "center"] = Field(
+        "none", description="test time: crop each image to a square before classifying: saliency, around its most "
+        "salient region (the part, by spectral-residual saliency); center, its largest centred square; none: the whole "
+        "image, resized to a square; training images (square renders) are not cropped"
     )
 
     @model_validator(mode="after")

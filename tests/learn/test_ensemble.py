@@ -135,3 +135,12 @@ def test_cli_trains_an_ensemble_that_evaluates_and_exports(blobs, tmp_path):
     assert res.exit_code == 0 and (tmp_path / "m.onnx").is_file()
     res = run(app, ["train", folder, "--out", str(tmp_path / "m2"), "--ensemble", "0", "--config", str(cfg)])
     assert res.exit_code == 2 and "train.ensemble" in res.output
+
+
+def test_center_crop_is_the_largest_centred_square():
+    from deformsim.learn.crops import crop
+
+    image = Image.fromarray(np.arange(30 * 40 * 3, dtype=np.uint32).reshape(40, 30, 3).astype(np.uint8))
+    out = crop(image, "center")
+    assert out.size == (30, 30)
+    np.testing.assert_array_equal(np.asarray(out), np.asarray(image)[5:35])

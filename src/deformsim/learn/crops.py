@@ -1,4 +1,6 @@
-"""Object-centred crops at test time (``train.crop: saliency``): a square around the most salient region.
+"""Square crops at test time (``train.crop``): ``saliency``, a square around the most salient region (the part);
+``center``, the largest centred square. Either keeps the photo's aspect, which resizing a whole non-square photo
+to the square input would distort (the renders are square).
 
 Saliency is the spectral residual of Hou and Zhang (CVPR 2007) on a 64 px grey thumbnail: the log amplitude
 spectrum less its local mean, transformed back with the original phase, squared and blurred. Pixels above three
@@ -48,6 +50,17 @@ def saliency_box(image: Image.Image) -> tuple[int, int, int, int]:
     return left, top, left + side, top + side
 
 
+def center_box(image: Image.Image) -> tuple[int, int, int, int]:
+    """The largest centred square (left, top, right, bottom) of ``image``."""
+    w, h = image.size
+    side = min(w, h)
+    left, top = (w - side) // 2, (h - side) // 2
+    return left, top, left + side, top + side
+
+
+BOXES = {"saliency": saliency_box, "center": center_box}
+
+
 def crop(image: Image.Image, mode: str) -> Image.Image:
     """``image`` cropped as ``train.crop`` says (``none``: unchanged)."""
-    return image if mode == "none" else image.crop(saliency_box(image))
+    return image if mode == "none" else image.crop(BOXES[mode](image))
