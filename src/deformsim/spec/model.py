@@ -136,6 +136,13 @@ class Material(StrictModel):
     kind: Literal["metal", "plastic", "painted"] = "metal"
     color: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.6, 0.6, 0.62), (0.9, 0.9, 0.92))
     roughness: Range = (0.2, 0.45)
+    anisotropic: float | None = Field(
+        None, ge=0, le=1, description="highlights stretched along the brushing or rolling direction (0-1; metal 0.3, "
+        "plastic and painted 0 when not given)"
+    )
+    anisotropic_rotation: float = Field(
+        0.0, ge=0, le=1, description="brushing direction in turns from around the up axis (0.25: along it)"
+    )
 
     @field_validator("color")
     @classmethod

@@ -281,8 +281,8 @@ def set_label(design: CanDesign, width: int = 512, height: int = 256, look: Appe
 
 def apply_material(obj: bpy.types.Object, spec_material: Material, params: MaterialParams,
                    look: AppearanceParams | None = None) -> None:
-    """Give a user mesh its one material: ``spec_material.kind`` with ``params`` colour and roughness; with ``look``
-    (``render.appearance``) its texture photo (or none) and gloss."""
+    """Give a user mesh its one material: ``spec_material.kind`` with ``params`` colour and roughness and the spec's
+    anisotropy; with ``look`` (``render.appearance``) its texture photo (or none) and gloss."""
     mat, new = _material(OBJECT_MATERIAL)
     bsdf = _bsdf(mat)
     if new:
@@ -292,7 +292,9 @@ def apply_material(obj: bpy.types.Object, spec_material: Material, params: Mater
     if _creases:
         add_creases(mat)
     _set(bsdf, {**_KINDS[spec_material.kind], "Base Color": (*params.color, 1.0), "Roughness": params.roughness,
-                "Coat Roughness": 0.1})
+                "Coat Roughness": 0.1, "Anisotropic Rotation": spec_material.anisotropic_rotation})
+    if spec_material.anisotropic is not None:  # Cycles' default tangent runs around the object's up axis
+        _set(bsdf, {"Anisotropic": spec_material.anisotropic})
     if look is not None and TEXTURE_IMAGE in mat.node_tree.nodes:
         _set_texture(mat, bsdf, look)
     mats = obj.data.materials
