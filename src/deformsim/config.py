@@ -105,6 +105,10 @@ class CameraConfig(_Model):
         "about the up axis) drawn per sample in [min, max]; generate.n is a multiple of the number of cameras"
     )
     polar: AngleRange = Field((50.0, 70.0), description="camera angle from the up axis (degrees), drawn per camera")
+    polar_views: Annotated[list[AngleRange] | None, identity.WHEN_SET] = Field(
+        None, max_length=64, description="one polar range per camera (as azimuth_quadrants), e.g. side views and a top "
+        "view; null = polar for every camera"
+    )
     radius: Annotated[Range, Within(hi=100, above=0)] = Field(
         (0.30, 0.45), description="camera distance (m for the built-in can; scaled with a mesh's size), drawn per camera"
     )
@@ -127,6 +131,18 @@ class CameraConfig(_Model):
         None, description="depth of field: aperture f-number drawn per image (log-uniformly), focused on the part's "
         "centre; null = off"
     )
+
+    @model_validator(mode="after")
+    def _views(self) -> "CameraConfig":
+        if self.polar_views is not None and len(self.polar_views) != len(self.azimuth_quadrants):
+            raise ValueError(f"camera.polar_views has {len(self.polar_views)} ranges for "
+                             f"{len(self.azimuth_quadrants)} cameras: give one per azimuth range")
+        return self
+
+    @property
+    def polars(self) -> list[tuple[float, float]]:
+        """Each camera's polar range: ``polar_views``, else ``polar`` for all."""
+        return list(self.polar_views) if self.polar_views is not None else [self.polar] * len(self.azimuth_quadrants)
 
     @property
     def lens_fixed(self) -> float:
@@ -196,6 +212,10 @@ class LightingConfig(_Model):
     """HDRI world lighting: a random EXR at a random rotation; optional area lights on top."""
 
     hdri_dir: Path | None = Field(None, description="folder of .exr/.hdr files; null = Blender's studiolights")
+    hdris: Annotated[list[str] | None, identity.WHEN_SET] = Field(
+        None, min_length=1, description="draw only these HDRIs (file names without extension, e.g. [interior, "
+        "studio] of Blender's); null = every HDRI found"
+    )
     rotation: Annotated[Range, Within(-360, 720)] = Field(
         (0.0, 360.0), description="rotation of the HDRI about the up axis (degrees), drawn per sample"
     )
@@ -255,6 +275,11 @@ class SurfaceConfig(_Model):
     photos: Path | None = Field(None, description="folder of texture photos (table tops, floors) for kind photo")
     scale: Annotated[Range, Within(hi=100, above=0)] = Field(
         (0.6, 1.6), description="texture scale: 1 = wood grain, weave, ridges at a real part's size"
+    )
+    backdrop: Annotated[float | None, identity.WHEN_SET] = Field(
+        None, gt=0, le=100, description="a matte wall this many part sizes behind the part, facing each side view "
+        "(cameras more than 45 degrees from straight down), coloured like the ground but darker; null = the HDRI "
+        "beyond the ground"
     )
 
     @model_validator(mode="after")

@@ -48,3 +48,14 @@ def hdri_files(hdri_dir: Path | str | None) -> dict[str, Path]:
 def list_hdris(hdri_dir: Path | str | None) -> list[str]:
     """Names of the available HDRIs, sorted: the names samples draw from and the workers' world loads."""
     return sorted(hdri_files(hdri_dir))
+
+
+def drawn_hdris(hdri_dir: Path | str | None, names: list[str] | None = None) -> list[str]:
+    """The HDRIs samples draw from: :func:`list_hdris`, or only ``names`` (``lighting.hdris``) of them, each checked."""
+    have = list_hdris(hdri_dir)
+    if names is None:
+        return have
+    unknown = [n for n in names if n not in have]
+    if unknown:
+        raise UserError(f"lighting.hdris: no HDRI named '{unknown[0]}' (have: {', '.join(have)})")
+    return sorted(set(names))

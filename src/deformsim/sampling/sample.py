@@ -94,10 +94,10 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
     cameras = tuple(
         CameraParams(
             azimuth=float(rng.uniform(*quad)),
-            polar=float(rng.uniform(*cam.polar)),
+            polar=float(rng.uniform(*polar)),
             radius=float(rng.uniform(*cam.radius)),
         )
-        for quad in cam.azimuth_quadrants
+        for quad, polar in zip(cam.azimuth_quadrants, cam.polars)
     )
 
     design = None

@@ -14,6 +14,9 @@ all come from the same light. Pattern sizes are metres at the built-in can's sca
 - ``cloth``: a woven pattern of crossed threads, a bump along them;
 - ``conveyor``: dark rubber belt with ribs across it and a fine grain;
 - ``photo``: a texture photo (a table top, a floor) tiled across the plane, about 0.6 m per tile at scale 1.
+
+With ``render.surface.backdrop`` a matte wall (:data:`BACKDROP`), coloured like the ground but darker, stands that
+many part sizes behind the part, turned to face each side view's camera, instead of the HDRI beyond the ground.
 """
 
 from __future__ import annotations
@@ -33,6 +36,10 @@ from deformsim.config import Config
 from deformsim.dataset.layout import SURFACE_KIND
 
 SURFACE = "DeformsimSurface"
+BACKDROP = "DeformsimBackdrop"
+PART_SIZE = 0.122  # m per unit of camera scale: the part's largest dimension (blender.worker.REFERENCE_SIZE)
+BACKDROP_DARKER = 0.45  # the wall's colour value over the ground's
+SIDE_VIEW = 45.0  # degrees from straight down past which a camera sees the wall
 PHOTO_TILE = 0.6  # m: the size one texture photo covers on the ground at scale 1 (a table top's width)
 # How much darker each kind's dark tone is than its drawn colour (0 = same, 1 = black).
 CONTRAST = {"wood": 0.55, "paper": 0.08, "concrete": 0.45, "metal": 0.25, "cloth": 0.5, "conveyor": 0.5}
@@ -67,6 +74,39 @@ def set_surface(plane, obj, target, p, camera_scale: float = 1.0) -> None:
     plane.data.materials.append(mat)
 
 
+def make_backdrop(scene, camera_scale: float = 1.0):
+    """The hidden wall (``render.surface.backdrop``): a plane like the ground's with one matte material."""
+    wall = make_plane(scene, BACKDROP, camera_scale)
+    mat = bpy.data.materials.new(BACKDROP)
+    mat.use_nodes = True
+    bsdf = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    bsdf.inputs["Roughness"].default_value = 0.9
+    wall.data.materials.append(mat)
+    return wall
+
+
+def set_backdrop(wall, p) -> None:
+    """Colour the wall like sample surface ``p``'s ground (its drawn colour, :data:`BACKDROP_DARKER` as bright)."""
+    rgb = _linear(colorsys.hsv_to_rgb(p.hue, p.saturation, min(p.value, 1.0) * BACKDROP_DARKER))
+    bsdf = next(n for n in wall.data.materials[0].node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    bsdf.inputs["Base Color"].default_value = (*rgb, 1.0)
+
+
+def face_camera(wall, camera, target, distance: float) -> bool:
+    """Stand the wall upright ``distance`` metres behind ``target`` as seen from ``camera``; False (and hidden) for a
+    camera within :data:`SIDE_VIEW` degrees of straight down, which would see it edge on."""
+    view = np.asarray(target, float) - np.asarray(camera.location, float)  # cameras have no parent
+    flat = np.hypot(view[0], view[1])
+    if math.degrees(math.atan2(flat, -view[2])) <= SIDE_VIEW:
+        wall.hide_render = True
+        return False
+    ax, ay = view[0] / flat, view[1] / flat
+    wall.location = (target[0] + ax * distance, target[1] + ay * distance, target[2])
+    wall.rotation_euler = (math.pi / 2, 0.0, math.atan2(ay, ax) + math.pi / 2)
+    wall.hide_render = False
+    return True
+
+
 def render_scene(scene, plane, world, target: Path, last: bool = True) -> tuple[np.ndarray, float]:
     """Render the surface scene of the scene's camera (plane shown, HDRI seen beyond it); return (RGB, seconds).
 
@@ -91,7 +131,10 @@ class Surface(Feature):
     def __init__(self, ctx: RenderContext):
         super().__init__(ctx)
         self.plane = make_surface(ctx.scene, ctx.camera_scale)
+        backdrop = ctx.cfg.render.surface.backdrop
+        self.wall = make_backdrop(ctx.scene, ctx.camera_scale) if backdrop is not None else None
         self.params = ""  # the sample's surface, as its manifest column
+        self.target = ctx.target
 
     @staticmethod
     def on(cfg: Config) -> bool:
@@ -101,10 +144,20 @@ class Surface(Feature):
         if p.surface is None:
             raise ValueError(f"sample {p.index} has no surface (drawn without render.surface?)")
         set_surface(self.plane, self.ctx.obj, target, p.surface, self.ctx.camera_scale)
+        if self.wall is not None:
+            set_backdrop(self.wall, p.surface)
         self.params = json.dumps(p.surface.__dict__, sort_keys=True)
+        self.target = target
 
     def render_pass(self, c: int, path: Path, last: bool) -> tuple[np.ndarray, float]:
-        return render_scene(self.ctx.scene, self.plane, self.ctx.world, path, last=last)
+        if self.wall is None:
+            return render_scene(self.ctx.scene, self.plane, self.ctx.world, path, last=last)
+        distance = self.ctx.cfg.render.surface.backdrop * PART_SIZE * self.ctx.camera_scale
+        face_camera(self.wall, self.ctx.scene.camera, self.target, distance)
+        try:
+            return render_scene(self.ctx.scene, self.plane, self.ctx.world, path, last=last)
+        finally:
+            self.wall.hide_render = True
 
     def image_columns(self, c: int) -> dict:
         return {"surface_params": self.params}
