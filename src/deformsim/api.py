@@ -30,11 +30,13 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class SpecCheck:
-    """A valid spec and, with a mesh, the mesh's size in metres and a hint when that size suggests wrong units."""
+    """A valid spec and, with a mesh, the mesh's size in metres and a hint when that size suggests wrong units; a
+    line naming the keys too small to see at the config's render size (:mod:`deformsim.generate.visibility`)."""
 
     spec: Spec
     size: list[float] | None = None
     hint: str | None = None
+    small: str | None = None
 
 
 @dataclass(frozen=True)
@@ -209,15 +211,16 @@ class Engine:
 
     def spec_check(self, spec: str | Path, mesh: str | Path | None = None) -> SpecCheck:
         """Validate a spec and, when given, its mesh by the part checks of ``generate`` (the mesh imported in a
-        throwaway Blender process); nothing rendered."""
+        throwaway Blender process), and say which keys are too small to see with this config; nothing rendered."""
         from deformsim.generate.stage import check_part_mesh
+        from deformsim.generate.visibility import invisible_keys
         from deformsim.spec.model import load_spec
 
         loaded = load_spec(spec)
         if mesh is None:
-            return SpecCheck(loaded)
+            return SpecCheck(loaded, small=invisible_keys(self.config, loaded, None) if loaded.builtin else None)
         size, hint = check_part_mesh(loaded, Path(mesh), Path(spec))
-        return SpecCheck(loaded, size, hint)
+        return SpecCheck(loaded, size, hint, invisible_keys(self.config, loaded, size))
 
     def spec_preview(self, spec: str | Path | None, mesh: str | Path | None, out: str | Path, resolution: int = 192,
                      samples: int = 16, bank: bool = True) -> Path:

@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import ConfigArgs, console, err_console, fail_cleanly, plain_engine
+from deformsim.cli.common import ConfigArgs, console, err_console, fail_cleanly
 
 
 def register(app: typer.Typer) -> None:
@@ -19,9 +19,11 @@ def register(app: typer.Typer) -> None:
     def check(
         file: Path = typer.Argument(..., help="deformation spec YAML"),
         object_: Optional[Path] = typer.Option(None, "--object", help="the mesh the spec is for"),
+        config: Optional[Path] = typer.Option(None, "--config", help="config YAML or preset whose render size, "
+                                              "framing and deform settings decide whether each key shows"),
     ) -> None:
         """Validate a spec (and its mesh) without rendering anything."""
-        checked = plain_engine().spec_check(file, object_)
+        checked = ConfigArgs(source=config).engine().spec_check(file, object_)
         spec, mesh = checked.spec, ""
         if checked.size is not None:
             mesh = f"; mesh {object_.name}: {' x '.join(f'{v * 1000:.0f}' for v in checked.size)} mm"
@@ -31,6 +33,8 @@ def register(app: typer.Typer) -> None:
         )
         if checked.hint:
             err_console.print(f"[yellow]hint:[/] {checked.hint}", highlight=False, soft_wrap=True)
+        if checked.small:
+            err_console.print(f"[yellow]warning:[/] {checked.small}", highlight=False, soft_wrap=True)
 
     @spec_app.command("preview")
     @fail_cleanly

@@ -70,7 +70,7 @@ def render_preview(spec_path: Path | None, mesh: Path | None, out: Path, resolut
         overrides["deform.sources.bank"] = 1.0  # the worker loads the bank
     cfg = load_config("quick", overrides)
     with tempfile.TemporaryDirectory(prefix="deformsim-preview-") as tmp:
-        spec, hdris = prepare(cfg, Path(tmp), spec=spec)
+        spec, hdris = prepare(cfg, Path(tmp), spec=spec, warn_small=False)  # its keys show at full weight
         hdri = "studio" if "studio" in hdris else hdris[0]
         base = dataclasses.replace(sample_params(0, 0, cfg, spec, hdris), hdri=hdri)
         states = preview_states(base, openings=bool(spec.openings.seal),

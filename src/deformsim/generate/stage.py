@@ -30,7 +30,8 @@ from deformsim.generate.identity import appearance_photos, input_digests, textur
 from deformsim.generate.local import run_local
 from deformsim.generate.probe import probe_mesh
 from deformsim.generate.refusals import check_part, check_probe, existing_dataset, n_samples
-from deformsim.hdri import list_hdris
+from deformsim.generate.visibility import invisible_keys
+from deformsim.hdri import drawn_hdris
 from deformsim.log import get_logger
 from deformsim.outputs import check_apart, check_folder_target, remove_folder, sweep
 from deformsim.sampling import allowed_families, sample_params
@@ -51,8 +52,10 @@ class GenerateResult:
     device: str = ""
 
 
-def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None = None) -> tuple[Spec, list[str]]:
-    """Every check that can fail on user input, before any work and before touching ``out``.
+def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None = None,
+            warn_small: bool = True) -> tuple[Spec, list[str]]:
+    """Every check that can fail on user input, before any work and before touching ``out``; ``warn_small``: log a
+    warning when the spec's keys are too small to see at the render size (:mod:`.visibility`).
 
     ``out`` must be a new or empty folder, or a dataset of the same settings and inputs with no more samples than
     ``cfg`` asks for (it is resumed); with ``overwrite`` any dataset is accepted (:func:`generate` replaces it).
@@ -64,7 +67,7 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
     if cfg.deform.sources.uses_bank and spec.simulation is None:
         raise UserError(f"deform.sources uses the simulated bank, but spec '{spec.name}' declares no simulation "
                         "scenarios (set deform.sources.bank and .both to 0, or add simulation: to the spec)")
-    hdris = list_hdris(cfg.lighting.hdri_dir)
+    hdris = drawn_hdris(cfg.lighting.hdri_dir, cfg.lighting.hdris)
     for what, photos in (("render.surface.photos", texture_photos(cfg)), ("render.appearance.photos",
                                                                           appearance_photos(cfg))):
         for photo in photos or ():
@@ -82,9 +85,11 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
                                    "surface photo folder": surface.photos if surface is not None else None,
                                    "artwork photo folder": cfg.render.appearance.photos
                                    if cfg.render.appearance is not None else None})
-    _, hint = check_part_mesh(spec, cfg.object.mesh, cfg.object.spec)
+    size, hint = check_part_mesh(spec, cfg.object.mesh, cfg.object.spec)
     if hint:
         log.warning("mesh %s: %s", cfg.object.mesh, hint)
+    if warn_small and (tiny := invisible_keys(cfg, spec, size)):
+        log.warning(tiny)
     return spec, hdris
 
 
