@@ -38,6 +38,7 @@ from deformsim.version import __version__
 log = get_logger(__name__)
 
 EXAMPLES_PER_CLASS = 3
+LOW_SYNTHETIC = 0.75  # held-out synthetic accuracy below which the model has not learned the renders
 GRADCAM_MAX = 24  # real photos with a heatmap per model
 GRADCAM_SIZE = 224  # longest side of a heatmap image, pixels
 
@@ -180,6 +181,20 @@ def _summary(entry: dict) -> dict:
     }
 
 
+def low_synthetic(metrics: dict) -> list[str]:
+    """One line per variant whose held-out synthetic accuracy is below :data:`LOW_SYNTHETIC`: a model that cannot
+    tell the renders apart has learned nothing its real-photo figures could show."""
+    lines = []
+    for v, entry in metrics.get("variants", {}).items():
+        acc = (entry.get("split") or {}).get("metrics", {}).get("accuracy")
+        if acc is not None and acc < LOW_SYNTHETIC:
+            lines.append(f"variant {v}: held-out synthetic accuracy {acc:.2f} is below {LOW_SYNTHETIC:g}: the model "
+                         "does not tell the renders apart, so its real-photo figures mean little; check that the "
+                         "deformations show (deformsim show, deformsim spec check --config), then render more or "
+                         "larger images or train longer")
+    return lines
+
+
 def run_experiments(
     data_root: str | Path, cfg: TrainConfig, out_dir: str | Path, real_dir: str | Path | None = None,
     progress: bool = True,
@@ -253,6 +268,8 @@ def run_experiments(
     if dense is not None:
         metrics["dense"] = dense
     write_json(out_dir / "metrics.json", metrics)
+    for line in low_synthetic(metrics):
+        log.warning(line)
     return metrics
 
 

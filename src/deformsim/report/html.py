@@ -12,6 +12,7 @@ from pathlib import Path
 from deformsim.atomic import write_text
 from deformsim.dataset.images import CLASSES
 from deformsim.evaluate.calibration import reliability
+from deformsim.evaluate.experiments import low_synthetic
 from deformsim.report.dense_html import dense_section
 from deformsim.report.fewshot_html import fewshot_section
 from deformsim.report.figures import curves_png, data_uri, png_file_uri, reliability_png
@@ -67,6 +68,7 @@ table.t2{border-collapse:collapse;width:100%;background:#fff;font-variant-numeri
 .kv td{padding:3px 14px 3px 0;border-bottom:1px solid #e6e9ef;vertical-align:top}
 .kv td:first-child{color:#5b6475}
 code{font-size:12px}
+.warn{background:#fdecea;border-left:5px solid #b3261e;border-radius:6px;padding:10px 14px;margin:16px 0 0}
 pre.yaml{background:#fff;border-radius:8px;padding:10px 14px;font-size:12px;overflow-x:auto}
 table.wrong{border-collapse:collapse;background:#fff;font-size:13px;width:100%}
 .wrong td,.wrong th{padding:4px 8px;border-bottom:1px solid #e6e9ef;text-align:left;vertical-align:middle}
@@ -304,6 +306,7 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         "<h1>Deformation classifier report</h1>",
         f"<div class=sub>{escape(str(metrics.get('data_root', '')))} · "
         f"{escape(str(metrics.get('created', '')))}</div>",
+        "".join(f"<div class=warn><b>Warning:</b> {escape(line)}</div>" for line in low_synthetic(metrics)),
         _hero(metrics),
         "<h2>Results by training variant (paper, Table II)</h2>",
         "<p class=note>Deformed is the positive class. Synthetic test: a held-out part of the variant, split by "
