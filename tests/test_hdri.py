@@ -30,3 +30,14 @@ def test_list_hdris_bad_folder_is_user_error(tmp_path, make):
         (folder / "sky.hdr").write_bytes(b"x")
     with pytest.raises(UserError, match="hdris"):
         list_hdris(folder)
+
+
+def test_lighting_hdris_draws_only_the_named_ones(tmp_path):
+    from deformsim.hdri import drawn_hdris
+
+    for name in ("a", "b", "c"):
+        (tmp_path / f"{name}.exr").write_bytes(b"x")
+    assert drawn_hdris(tmp_path) == ["a", "b", "c"]
+    assert drawn_hdris(tmp_path, ["c", "a"]) == ["a", "c"]
+    with pytest.raises(UserError, match="lighting.hdris: no HDRI named 'd' \\(have: a, b, c\\)"):
+        drawn_hdris(tmp_path, ["a", "d"])

@@ -217,3 +217,13 @@ def test_layout_fits_a_phone(metrics):
     assert html.count("<table") == html.count("<div class=scroll><table") + html.count('<div class="cm">')
     assert ".scroll{overflow-x:auto" in html and ".plots img{" in html and "width:100%" in html
     assert "@media (max-width:640px)" in html
+
+
+def test_a_low_held_out_synthetic_accuracy_is_a_warning_banner(metrics):
+    m, out = metrics
+    assert "class=warn" not in write_report(m, out).read_text()  # black's split: 3 of 4 right, 0.75
+    paths = [p["path"] for p in m["variants"]["black"]["split"]["predictions"]]
+    m["variants"]["black"]["split"] = _result(paths, [0, 0, 1, 1], [0.2, 0.7, 0.9, 0.3], "models/black_split/model.pt")
+    html = write_report(m, out).read_text()
+    banner = html[html.index("class=warn"):html.index('class="hero"')]
+    assert "variant black: held-out synthetic accuracy 0.50 is below 0.75" in banner and "backgrounds" not in banner

@@ -183,3 +183,20 @@ def test_surfaces_draw_from_a_stream_of_their_own(setup, tmp_path):
     (tmp_path / "a.jpg").unlink(), (tmp_path / "b.png").unlink()
     with pytest.raises(UserError, match="no images"):
         surface_photos(tmp_path)
+
+
+def test_polar_views_draw_each_cameras_polar_from_its_own_range():
+    from deformsim.errors import UserError
+    from deformsim.hdri import list_hdris
+
+    spec, hdris = load_spec(None), list_hdris(None)
+    views = [[72, 88], [72, 88], [72, 88], [2, 10]]
+    cfg = load_config("quick", {"camera.polar_views": views})
+    polars = np.array([[c.polar for c in sample_params(i, 0, cfg, spec, hdris).cameras] for i in range(20)])
+    assert (polars[:, :3] >= 72).all() and (polars[:, :3] <= 88).all() and (polars[:, 3] <= 10).all()
+    # the same stream positions as one range for all: polar_views of the preset's polar draws the same scenes
+    plain = load_config("quick")
+    same = load_config("quick", {"camera.polar_views": [list(plain.camera.polar)] * 4})
+    assert all(sample_params(i, 0, plain, spec, hdris) == sample_params(i, 0, same, spec, hdris) for i in range(4))
+    with pytest.raises(UserError, match="camera.polar_views has 2 ranges for 4 cameras"):
+        load_config("quick", {"camera.polar_views": [[0, 10], [80, 90]]})

@@ -110,3 +110,12 @@ def test_spec_preview_sizes_are_in_the_configs_range(tmp_path, flag, value):
     res = CliRunner().invoke(app, ["spec", "preview", "--out", str(tmp_path / "p.png"), flag, value])
     assert res.exit_code == 2 and f"error: {flag} {value}: invalid render.{flag[2:]}: Input should be" in res.output
     assert not (tmp_path / "p.png").exists()
+
+
+def test_a_materials_anisotropy_is_optional_and_bounded():
+    from deformsim.spec.model import Material
+
+    assert Material().anisotropic is None and Material(anisotropic=0.6).anisotropic == 0.6
+    for bad in ({"anisotropic": 1.5}, {"anisotropic": -0.1}, {"anisotropic_rotation": 2}):
+        with pytest.raises(ValueError):
+            Material(**bad)

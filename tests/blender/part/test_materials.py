@@ -118,3 +118,25 @@ def test_creases_show_on_a_crinkled_can_only():
     assert intact["diff"] < 0.5, "an intact can must look the same"
     assert deformed["diff"] > 4 * max(intact["diff"], 0.5)
     assert deformed["sat_on"] < deformed["sat_off"], "scuffed ridges are grey bare metal"
+
+
+ANISOTROPY = """
+import json, bpy
+from deformsim.blender.part import materials
+from deformsim.sampling import MaterialParams
+from deformsim.spec.model import Material
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.mesh.primitive_cube_add()
+cube = bpy.context.active_object
+out = []
+for m in (Material(anisotropic=0.6, anisotropic_rotation=0.25), Material(), Material(kind="plastic", anisotropic=0.2)):
+    materials.apply_material(cube, m, MaterialParams((0.8, 0.8, 0.8), 0.1))
+    bsdf = materials._bsdf(cube.data.materials[0])
+    out.append([bsdf.inputs["Anisotropic"].default_value, bsdf.inputs["Anisotropic Rotation"].default_value])
+print(json.dumps(out))
+"""
+
+
+def test_the_spec_materials_anisotropy_reaches_the_bsdf_and_resets():
+    out = run_blender(ANISOTROPY)
+    assert sum(out, []) == pytest.approx([0.6, 0.25, 0.3, 0.0, 0.2, 0.0])  # metal's own 0.3 when none is given

@@ -99,3 +99,32 @@ def test_every_procedural_kind_renders_its_own_ground(tmp_path):
         for j in range(i):
             assert np.abs(grounds[i] - grounds[j]).max() > 2, (kinds[i], kinds[j])  # each kind looks its own
     assert grounds[kinds.index("paper")].mean() > grounds[kinds.index("conveyor")].mean() + 30  # white paper, black belt
+
+
+BACKDROP = """
+import json, math, bpy
+from deformsim.blender.scene import surface
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+wall = surface.make_backdrop(scene)
+cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+out = {"hidden_at_start": wall.hide_render}
+cam.location = (1.0, 0.0, 0.3)  # a side view from +x: the wall stands 0.5 m behind the part, facing the camera
+out["side"] = surface.face_camera(wall, cam, (0.0, 0.0, 0.1), 0.5)
+bpy.context.view_layer.update()
+normal = wall.matrix_world.to_3x3() @ wall.data.polygons[0].normal
+out["side_at"] = list(wall.location) + [abs(normal.x), abs(normal.z), wall.hide_render]
+cam.location = (0.1, 0.0, 1.0)  # from above: no wall
+out["top"] = [surface.face_camera(wall, cam, (0.0, 0.0, 0.1), 0.5), wall.hide_render]
+print(json.dumps(out))
+"""
+
+
+def test_the_backdrop_stands_behind_the_part_in_side_views_only():
+    from tests.blender.conftest import run_blender
+
+    out = run_blender(BACKDROP)
+    assert out["hidden_at_start"] and out["side"] and out["top"] == [False, True]
+    x, y, z, nx, nz, hidden = out["side_at"]
+    assert (x, y, z) == pytest.approx((-0.5, 0.0, 0.1), abs=1e-6) and nx == pytest.approx(1.0) and nz < 1e-6
+    assert not hidden
