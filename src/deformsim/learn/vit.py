@@ -64,20 +64,26 @@ def vit_b_16_features() -> nn.Sequential:
     return nn.Sequential(ViTEmbed(), *blocks, ClassToken(768))
 
 
-def vit_b_16_state(state: dict) -> dict:
-    """torchvision's ViT-B/16 state dict as a :func:`vit_b_16_features` one (the classifier left out)."""
+def _mapped(state: dict, front: dict[str, str], blocks: str, final: str) -> dict:
+    """``state`` in these modules' names: the embedding's keys by ``front``, block ``i`` (keys after the prefix
+    ``blocks``) to ``i + 1``, the final norm (prefix ``final``) to the class-token LayerNorm; the rest left out."""
     out = {}
     for key, value in state.items():
-        if key in ("conv_proj.weight", "conv_proj.bias", "class_token"):
-            out[f"0.{key}"] = value
-        elif key == "encoder.pos_embedding":
-            out["0.pos_embedding"] = value
-        elif key.startswith("encoder.layers.encoder_layer_"):
-            index, _, rest = key.removeprefix("encoder.layers.encoder_layer_").partition(".")
+        if key in front:
+            out[front[key]] = value
+        elif key.startswith(blocks):
+            index, _, rest = key.removeprefix(blocks).partition(".")
             out[f"{int(index) + 1}.{rest}"] = value
-        elif key.startswith("encoder.ln."):
+        elif key.startswith(final):
             out[f"{DEPTH + 1}.ln.{key.rpartition('.')[2]}"] = value
     return out
+
+
+def vit_b_16_state(state: dict) -> dict:
+    """torchvision's ViT-B/16 state dict as a :func:`vit_b_16_features` one (the classifier left out)."""
+    front = {"conv_proj.weight": "0.conv_proj.weight", "conv_proj.bias": "0.conv_proj.bias",
+             "class_token": "0.class_token", "encoder.pos_embedding": "0.pos_embedding"}
+    return _mapped(state, front, "encoder.layers.encoder_layer_", "encoder.ln.")
 
 
 class Dinov2Embed(nn.Module):
@@ -135,15 +141,6 @@ def dinov2_vits14_features() -> nn.Sequential:
 
 def dinov2_state(state: dict) -> dict:
     """DINOv2's ViT-S/14 checkpoint as a :func:`dinov2_vits14_features` state dict (``mask_token`` left out)."""
-    out = {}
-    for key, value in state.items():
-        if key in ("cls_token", "pos_embed"):
-            out[f"0.{key}"] = value
-        elif key.startswith("patch_embed.proj."):
-            out[f"0.proj.{key.rpartition('.')[2]}"] = value
-        elif key.startswith("blocks."):
-            index, _, rest = key.removeprefix("blocks.").partition(".")
-            out[f"{int(index) + 1}.{rest}"] = value
-        elif key.startswith("norm."):
-            out[f"{DEPTH + 1}.ln.{key.rpartition('.')[2]}"] = value
-    return out
+    front = {"cls_token": "0.cls_token", "pos_embed": "0.pos_embed", "patch_embed.proj.weight": "0.proj.weight",
+             "patch_embed.proj.bias": "0.proj.bias"}
+    return _mapped(state, front, "blocks.", "norm.")
