@@ -63,3 +63,17 @@ def test_benchmark_big_number_is_green_only_when_every_run_beats_the_baseline(re
     results["majority_baseline"] = 0.85
     html = write_benchmark_report(results, tmp_path).read_text()
     assert 'class="big ">85.0%' in html and "runs on both sides of the majority baseline" in html
+
+
+def test_benchmark_report_shows_the_ensembles_and_the_difference_to_a_baseline(results, tmp_path):
+    from deformsim.evaluate.paired import compare, ensembles
+
+    results["settings"]["train"]["threshold"] = 0.5
+    results["ensembles"] = ensembles(results)
+    results["baseline"] = {"results": f"/runs/{HOSTILE}/results.json", "comparison": compare(results, results)}
+    html = write_benchmark_report(results, tmp_path / "bench").read_text()
+    assert "Ensembles of the training seeds" in html and "<td>1 x 2</td>" in html  # black: one draw of two seeds
+    e = results["ensembles"]["black"]
+    assert f"{100 * e['accuracy_mean']:.1f} ± {100 * e['accuracy_std']:.1f}" in html
+    assert "Difference to the baseline" in html and "+0.0 (+0.0 to +0.0)" in html
+    assert "<script" not in html

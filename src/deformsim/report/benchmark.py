@@ -60,6 +60,42 @@ def _summary_table(results: dict, eces: dict[str, float]) -> str:
     return f'<table class="t2"><tr><th>Trained on</th><th>runs</th>{head}</tr>{"".join(rows)}</table>'
 
 
+def _ensembles_table(results: dict) -> str:
+    """Each draw's ensemble of its training seeds, mean ± std over the draws; empty without ensembles."""
+    ens = results.get("ensembles") or {}
+    if not ens:
+        return ""
+    rows = "".join(f"<tr><td><b>{escape(v)}</b></td><td>{e['n_draws']} x {e['members']}</td>"
+                   + "".join(f"<td>{_pm(e[f'{k}_mean'], e[f'{k}_std'])}</td>" for k, _ in METRICS[:4]) + "</tr>"
+                   for v, e in ens.items())
+    head = "".join(f"<th>{label}</th>" for _, label in METRICS[:4])
+    return ("<h2>Ensembles of the training seeds</h2><p class=note>Percent. Each draw (data and background seed) "
+            "averages the probabilities of its training seeds' models into one prediction; mean ± std over the "
+            f'draws.</p><table class="t2"><tr><th>Trained on</th><th>draws x seeds</th>{head}</tr>{rows}</table>')
+
+
+def _baseline_table(results: dict) -> str:
+    """The paired differences to the baseline benchmark; empty without one."""
+    base = results.get("baseline")
+    if not base:
+        return ""
+    parts = (("runs", "run against run"), ("ensemble", "ensembles"), ("ensemble_vs_single", "ensembles against "
+                                                                                          "single baseline runs"))
+    rows = []
+    for v, c in base["comparison"].items():
+        for part, name in parts:
+            cells = "".join(
+                f"<td>{'<b>' if d['clears'] else ''}{100 * d['diff']:+.1f} ({100 * d['low']:+.1f} to "
+                f"{100 * d['high']:+.1f}){'</b>' if d['clears'] else ''}</td>"
+                for d in (c[part][k] for k, _ in METRICS[:4]))
+            rows.append(f"<tr><td><b>{escape(v)}</b>, {name}</td><td>{c['pairs']}</td>{cells}</tr>")
+    head = "".join(f"<th>{label}</th>" for _, label in METRICS[:4])
+    return (f"<h2>Difference to the baseline</h2><p class=note>Points, against {escape(str(base['results']))}, on the "
+            "same photos: the mean over paired runs (same variant and seeds) and its 95 % interval from resampling "
+            "the photos and the pairs; bold where the interval excludes zero.</p>"
+            f'<table class="t2"><tr><th>Trained on</th><th>pairs</th>{head}</tr>{"".join(rows)}</table>')
+
+
 def _bars(results: dict) -> str:
     series = {v: [(s[f"{k}_mean"], s[f"{k}_std"], [_value(r, k) for r in _mine(results, v)]) for k, _ in METRICS[:PLOTTED]]
               for v, s in results["variants"].items()}
@@ -130,6 +166,8 @@ def render_benchmark_html(results: dict) -> str:
         _summary_table(results, {v: d["ece"] for v, d in pooled.items()}),
         "<p class=note>Bars: means; whiskers: ± one standard deviation; dots: the runs.</p>",
         _bars(results),
+        _ensembles_table(results),
+        _baseline_table(results),
         f"<h2>Every run ({len(results['runs'])})</h2><p class=note>Percent; the confusion matrix counts real photos "
         "(true intact: TN, FP; true deformed: FN, TP).</p>",
         _runs_table(results, labels),
