@@ -77,3 +77,14 @@ def test_benchmark_report_shows_the_ensembles_and_the_difference_to_a_baseline(r
     assert f"{100 * e['accuracy_mean']:.1f} ± {100 * e['accuracy_std']:.1f}" in html
     assert "Difference to the baseline" in html and "+0.0 (+0.0 to +0.0)" in html
     assert "<script" not in html
+
+
+def test_benchmark_report_warns_when_the_synthetic_accuracy_is_low(results, tmp_path):
+    assert "class=warn" not in write_benchmark_report(results, tmp_path / "a").read_text()  # 0.9 on the renders
+    for run in results["runs"]:
+        if run["variant"] == "black":
+            run["synthetic"]["accuracy"] = 0.6
+    results["variants"] = aggregate(results["runs"])
+    html = write_benchmark_report(results, tmp_path / "b").read_text()
+    banner = html[html.index("class=warn"):html.index('class="hero"')]
+    assert "variant black: mean held-out synthetic accuracy 0.60 is below 0.75" in banner and banner.count("warn") == 1

@@ -181,17 +181,23 @@ def _summary(entry: dict) -> dict:
     }
 
 
+def low_synthetic_line(variant: str, accuracy: float, what: str = "held-out synthetic accuracy") -> str | None:
+    """A warning when ``accuracy`` on held-out renders is below :data:`LOW_SYNTHETIC`: a model that cannot tell the
+    renders apart has learned nothing its real-photo figures could show; None otherwise."""
+    if accuracy >= LOW_SYNTHETIC:
+        return None
+    return (f"variant {variant}: {what} {accuracy:.2f} is below {LOW_SYNTHETIC:g}: the model does not tell the renders "
+            "apart, so its real-photo figures mean little; check that the deformations show (deformsim show, "
+            "deformsim spec check --config), then render more or larger images or train longer")
+
+
 def low_synthetic(metrics: dict) -> list[str]:
-    """One line per variant whose held-out synthetic accuracy is below :data:`LOW_SYNTHETIC`: a model that cannot
-    tell the renders apart has learned nothing its real-photo figures could show."""
+    """:func:`low_synthetic_line` of every variant of a report's ``metrics`` that has one."""
     lines = []
     for v, entry in metrics.get("variants", {}).items():
         acc = (entry.get("split") or {}).get("metrics", {}).get("accuracy")
-        if acc is not None and acc < LOW_SYNTHETIC:
-            lines.append(f"variant {v}: held-out synthetic accuracy {acc:.2f} is below {LOW_SYNTHETIC:g}: the model "
-                         "does not tell the renders apart, so its real-photo figures mean little; check that the "
-                         "deformations show (deformsim show, deformsim spec check --config), then render more or "
-                         "larger images or train longer")
+        if acc is not None and (line := low_synthetic_line(v, acc)):
+            lines.append(line)
     return lines
 
 
