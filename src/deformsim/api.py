@@ -225,12 +225,14 @@ class Engine:
     def spec_preview(self, spec: str | Path | None, mesh: str | Path | None, out: str | Path, resolution: int = 192,
                      samples: int = 16, bank: bool = True) -> Path:
         """Render the rest shape and each key of a spec (default: the built-in can) at full weight into one labelled
-        PNG ``out`` (``bank``: and each simulated bank entry, baked first when it is not cached); its path."""
+        PNG ``out`` (``bank``: and each simulated bank entry, baked first when it is not cached); its path. Keys too
+        small to see in a typical image of a run with this engine's config are warned about."""
         from deformsim.generate.spec_preview import render_preview
         from deformsim.outputs import check_file_target
 
         out = check_file_target(out, "--out", [spec, mesh])  # before rendering
-        return render_preview(_path(spec), _path(mesh), out, resolution, samples, bank=bank, progress=self.progress)
+        return render_preview(_path(spec), _path(mesh), out, resolution, samples, bank=bank, progress=self.progress,
+                              seen_with=self.config)
 
     def sim2real(self, real: str | Path, out: str | Path, plan: Plan | None = None, adapt: str | Path | None = None,
                  datasets: str | Path | None = None, baseline: str | Path | None = None) -> dict:

@@ -56,3 +56,23 @@ def test_framing_closer_shows_more_pixels():
 def test_the_box_points_lie_on_the_parts_box():
     pts = box_surface(0.1, n=5)
     assert np.allclose(np.abs(pts).max(1), 0.5 / 1.2)
+
+
+def test_generate_warns_with_its_config_and_the_preview_with_the_runs(monkeypatch, tmp_path):
+    import yaml
+
+    from deformsim.generate import stage
+    from tests.generate.fakes import use_fakes
+
+    use_fakes(monkeypatch, probe_size=(0.07, 0.07, 0.11))
+    warnings = []
+    monkeypatch.setattr(stage.log, "warning", lambda msg, *args: warnings.append(msg % args))
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(yaml.safe_dump(spec_with(0.02).model_dump(mode="json", exclude_none=True)))
+    mesh = tmp_path / "part.stl"
+    mesh.write_bytes(b"solid x\n")
+    cfg = load_config("quick", {"object.mesh": mesh, "object.spec": spec})
+    stage.prepare(cfg, tmp_path / "a")
+    assert len(warnings) == 1 and "'knock'" in warnings[0]
+    stage.prepare(cfg, tmp_path / "b", seen_with=load_config("quick", {"render.resolution": 2048}))
+    assert len(warnings) == 1  # at the run's 2048 px the knock shows

@@ -47,10 +47,13 @@ def register(app: typer.Typer) -> None:
         no_bank: bool = typer.Option(False, "--no-bank", help="Render the lattice keys, textures and openings "
                                      "alone: no simulated bank tiles, so no bank to bake first."),
         progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while it renders."),
+        config: Optional[Path] = typer.Option(None, "--config", help="config YAML or preset of the run, whose render "
+                                              "size, framing and deform settings decide whether each key shows"),
     ) -> None:
         """Render the rest shape and each key at full weight into one labelled image."""
         sizes = ConfigArgs(flags={"--resolution": ("render.resolution", resolution),
                                   "--samples": ("render.samples", samples)})
-        engine = sizes.engine(progress)  # the sizes within the config's ranges
+        sizes.engine(progress)  # the sizes within the config's ranges
+        engine = ConfigArgs(source=config).engine(progress)  # the run's settings, for the small-key warning
         path = engine.spec_preview(file, object_, out, resolution, samples, bank=not no_bank)
         console.print(f"spec preview: {path}")

@@ -11,7 +11,7 @@ from PIL import Image
 from deformsim.atomic import atomic_path
 from deformsim.bank.stage import bake
 from deformsim.bank.store import bank_dir, is_complete
-from deformsim.config import load_config
+from deformsim.config import Config, load_config
 from deformsim.dataset.contact_sheet import grid
 from deformsim.dataset.layout import Layout, image_id
 from deformsim.generate.backend import worker_setup
@@ -58,8 +58,9 @@ def plan_message(states: list[tuple[str, SampleParams]], bake_entries: int) -> s
 
 
 def render_preview(spec_path: Path | None, mesh: Path | None, out: Path, resolution: int, samples: int,
-                   bank: bool = True, progress: bool = True) -> Path:
-    """Write the preview sheet ``out``; ``bank=False`` leaves out the simulated bank's tiles (and its bake)."""
+                   bank: bool = True, progress: bool = True, seen_with: Config | None = None) -> Path:
+    """Write the preview sheet ``out``; ``bank=False`` leaves out the simulated bank's tiles (and its bake). Keys too
+    small to see in a typical image of a run with config ``seen_with`` (default the quick preset) are warned about."""
     from deformsim.generate.worker_client import WorkerProcess
 
     overrides = {**FIXED_VIEW, "object.spec": spec_path, "object.mesh": mesh, "generate.n": 1,
@@ -70,7 +71,7 @@ def render_preview(spec_path: Path | None, mesh: Path | None, out: Path, resolut
         overrides["deform.sources.bank"] = 1.0  # the worker loads the bank
     cfg = load_config("quick", overrides)
     with tempfile.TemporaryDirectory(prefix="deformsim-preview-") as tmp:
-        spec, hdris = prepare(cfg, Path(tmp), spec=spec, warn_small=False)  # its keys show at full weight
+        spec, hdris = prepare(cfg, Path(tmp), spec=spec, seen_with=seen_with or load_config("quick"))
         hdri = "studio" if "studio" in hdris else hdris[0]
         base = dataclasses.replace(sample_params(0, 0, cfg, spec, hdris), hdri=hdri)
         states = preview_states(base, openings=bool(spec.openings.seal),

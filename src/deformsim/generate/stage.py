@@ -53,9 +53,9 @@ class GenerateResult:
 
 
 def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None = None,
-            warn_small: bool = True) -> tuple[Spec, list[str]]:
-    """Every check that can fail on user input, before any work and before touching ``out``; ``warn_small``: log a
-    warning when the spec's keys are too small to see at the render size (:mod:`.visibility`).
+            seen_with: Config | None = None) -> tuple[Spec, list[str]]:
+    """Every check that can fail on user input, before any work and before touching ``out``; a warning is logged when
+    the spec's keys are too small to see at the render size of ``seen_with`` (default ``cfg``; :mod:`.visibility`).
 
     ``out`` must be a new or empty folder, or a dataset of the same settings and inputs with no more samples than
     ``cfg`` asks for (it is resumed); with ``overwrite`` any dataset is accepted (:func:`generate` replaces it).
@@ -88,7 +88,7 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
     size, hint = check_part_mesh(spec, cfg.object.mesh, cfg.object.spec)
     if hint:
         log.warning("mesh %s: %s", cfg.object.mesh, hint)
-    if warn_small and (tiny := invisible_keys(cfg, spec, size)):
+    if tiny := invisible_keys(seen_with or cfg, spec, size):
         log.warning(tiny)
     return spec, hdris
 
