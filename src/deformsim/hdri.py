@@ -9,6 +9,7 @@ import importlib.util
 from pathlib import Path
 
 from deformsim.errors import UserError
+from deformsim.schema import shown
 
 HDRI_SUFFIXES = (".exr", ".hdr")
 
@@ -57,5 +58,5 @@ def drawn_hdris(hdri_dir: Path | str | None, names: list[str] | None = None) -> 
         return have
     unknown = [n for n in names if n not in have]
     if unknown:
-        raise UserError(f"lighting.hdris: no HDRI named '{unknown[0]}' (have: {', '.join(have)})")
+        raise UserError(f"lighting.hdris: no HDRI named '{shown(unknown[0])}' (have: {', '.join(have)})")
     return sorted(set(names))

@@ -40,7 +40,7 @@ def mutated(kind: str, default: object, value: object, slot: int) -> object:
     if kind.startswith(("integer", "number")):
         return value
     if kind.startswith("list of [min, max]"):
-        out = copy.deepcopy(default)
+        out = copy.deepcopy(default) if default is not None else [[0.5, 0.5]]
         out[0][slot % 2] = value
         return out
     out = list(default) if default is not None else [0.5, 0.5]
