@@ -14,7 +14,7 @@ from deformsim.config import TrainConfig
 from deformsim.learn.checkpoint import read_checkpoint, restore
 from deformsim.learn.crops import saliency_box
 from deformsim.learn.data import load_image
-from deformsim.learn.models import Ensemble, members
+from deformsim.learn.models import Ensemble, build, members
 from deformsim.learn.onnx import to_onnx
 from deformsim.learn.predict import load
 from deformsim.learn.train import fit
@@ -144,3 +144,15 @@ def test_center_crop_is_the_largest_centred_square():
     out = crop(image, "center")
     assert out.size == (30, 30)
     np.testing.assert_array_equal(np.asarray(out), np.asarray(image)[5:35])
+
+
+def test_an_ensemble_of_certain_members_has_a_finite_loss():
+    """A member's float32 sigmoid saturates at exactly 1: the ensemble's logit stays finite, so its loss does too."""
+    first, second = (build(TrainConfig(**CFG, seed=s))[0] for s in (0, 1))
+    for net in (first, second):
+        torch.nn.init.constant_(net.head[-1].bias, 40.0)  # P(deformed) = 1 in float32
+    model = Ensemble([first, second]).eval()
+    with torch.no_grad():
+        logits = model.tail(model.stem(torch.rand(2, 3, 64, 64)))
+    assert torch.isfinite(logits).all()
+    assert torch.isfinite(torch.nn.functional.binary_cross_entropy_with_logits(logits, torch.tensor([1.0, 0.0])))

@@ -105,10 +105,13 @@ class DeformNet(nn.Module):
         return self.outputs(self.stem(x))
 
 
+LOGIT_EPS = 1e-6  # an ensemble's mean probability is clamped to [eps, 1 - eps] before its logit
+
+
 class Ensemble(nn.Module):
     """``train.ensemble`` DeformNets of one config, trained with consecutive seeds, that share the frozen stem (one
     cache of stem activations serves all): predictions are the mean of their probabilities (``tail`` returns its
-    logit), ``embed`` is the first member's."""
+    clamped logit), ``embed`` is the first member's."""
 
     def __init__(self, members: list[DeformNet]):
         super().__init__()
@@ -134,7 +137,8 @@ class Ensemble(nn.Module):
         return torch.stack([m.outputs(z) for m in self.members]).mean(0)
 
     def tail(self, z: torch.Tensor) -> torch.Tensor:
-        return torch.logit(self.outputs(z))
+        # clamped: a member's float32 sigmoid reaches exactly 1, whose logit would make the loss NaN
+        return torch.logit(self.outputs(z), eps=LOGIT_EPS)
 
     def embed(self, z: torch.Tensor, layer: str = "penultimate") -> torch.Tensor:
         return self.members[0].embed(z, layer)
