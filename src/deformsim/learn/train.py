@@ -226,8 +226,9 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     if cfg.feature_norm and cfg.target == "label":
         from deformsim.learn.adapt import set_feature_stats
 
+        train_stems = inputs.all(train_rows, cfg.batch_size)
         for net in nets:
-            set_feature_stats(net, inputs.all(train_rows, cfg.batch_size), cfg.batch_size)
+            set_feature_stats(net, train_stems, cfg.batch_size)
     if adapt_paths:
         infos = [_adapt(net, opt, inputs, train_rows, y, c, adapt_paths, device, progress)
                  for net, opt, c in zip(nets, opts, seeded)]
