@@ -53,19 +53,22 @@ def report_summary(report: Path) -> None:
     print_table(table, report)
 
 
+def _spreads(row: dict, keys: tuple[str, ...]) -> list[str]:
+    """``row``'s ``<key>_mean`` ± ``<key>_std`` of each key, in percent."""
+    return [f"{100 * row[f'{k}_mean']:.1f} ± {100 * row[f'{k}_std']:.1f}%" for k in keys]
+
+
 def sim2real_summary(results: dict, report: Path) -> None:
     """Print the sim-to-real benchmark's ``results`` (mean ± std over its runs) and where its report is."""
     table = Table(title=f"Real-photo results over {len(results['runs'])} runs (mean ± std)", header_style="bold")
     for col in ("trained on", "runs", "accuracy", "F1", "precision", "recall", "synthetic accuracy", "majority class"):
         table.add_column(col, justify="left" if col == "trained on" else "right")
     for variant, r in results["variants"].items():
-        cells = [f"{100 * r[f'{k}_mean']:.1f} ± {100 * r[f'{k}_std']:.1f}%"
-                 for k in ("accuracy", "f1", "precision", "recall", "synthetic_accuracy")]
+        cells = _spreads(r, ("accuracy", "f1", "precision", "recall", "synthetic_accuracy"))
         table.add_row(variant, str(r["n_runs"]), *cells, _share(results["majority_baseline"]))
         e = (results.get("ensembles") or {}).get(variant)
         if e:
-            cells = [f"{100 * e[f'{k}_mean']:.1f} ± {100 * e[f'{k}_std']:.1f}%"
-                     for k in ("accuracy", "f1", "precision", "recall")]
+            cells = _spreads(e, ("accuracy", "f1", "precision", "recall"))
             table.add_row(f"{variant}, ensemble of {e['members']} seeds", str(e["n_draws"]), *cells, "", "")
     print_table(table, report)
     if results.get("baseline"):
