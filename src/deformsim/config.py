@@ -92,6 +92,9 @@ Byte = Annotated[int, Field(ge=0, le=255)]
 Width = Annotated[int, Field(ge=1, le=8192)]  # a layer's width
 
 
+REFERENCE_SIZE = 0.122  # m: the built-in can's height; camera distances are given for it, scaled with a mesh's size
+
+
 class CameraConfig(_Model):
     """Four cameras, one per azimuth quadrant, all tracking the object (paper, section III).
 

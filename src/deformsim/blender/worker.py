@@ -21,8 +21,6 @@ import sys
 import time
 import traceback
 
-REFERENCE_SIZE = 0.122  # the built-in can's height (m): camera radii are given for it
-
 
 def _protocol_stream():
     """Keep the real stdout for replies and point fd 1 (Blender's prints) at stderr."""
@@ -49,7 +47,7 @@ def setup(msg: dict):
     from deformsim.blender.part import materials
     from deformsim.blender.scene.cameras import make_cameras
     from deformsim.blender.scene.world import World
-    from deformsim.config import validate_config
+    from deformsim.config import REFERENCE_SIZE, validate_config
     from deformsim.dataset.layout import Layout
     from deformsim.spec.model import load_spec
 

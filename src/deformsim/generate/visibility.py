@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from deformsim.config import Config
+from deformsim.config import REFERENCE_SIZE, Config
 from deformsim.sampling import allowed_families
 from deformsim.spec.lattice_ops import key_points, rest_lattice
 from deformsim.spec.model import Spec
@@ -18,7 +18,6 @@ from deformsim.spec.model import Spec
 MIN_PIXELS = 1.0  # a key that moves the part less than this in a typical image is reported
 SENSOR_MM = 36.0  # Blender's default sensor width (the frame side of a square render)
 CAN_SIZE = (0.066, 0.066, 0.122)  # m: the built-in can
-REFERENCE_SIZE = 0.122  # m: camera radii are given for the built-in can (blender.worker.REFERENCE_SIZE)
 FACE_POINTS = 24  # per side of each face of the bounding box where movement is evaluated
 
 

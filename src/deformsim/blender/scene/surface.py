@@ -32,12 +32,11 @@ import numpy as np
 from deformsim.blender.cycles import render_to_array
 from deformsim.blender.feature import Feature, RenderContext
 from deformsim.blender.scene.ground import make_plane, place, plane_shown
-from deformsim.config import Config
+from deformsim.config import REFERENCE_SIZE, Config
 from deformsim.dataset.layout import SURFACE_KIND
 
 SURFACE = "DeformsimSurface"
 BACKDROP = "DeformsimBackdrop"
-PART_SIZE = 0.122  # m per unit of camera scale: the part's largest dimension (blender.worker.REFERENCE_SIZE)
 BACKDROP_DARKER = 0.45  # the wall's colour value over the ground's
 SIDE_VIEW = 45.0  # degrees from straight down past which a camera sees the wall
 PHOTO_TILE = 0.6  # m: the size one texture photo covers on the ground at scale 1 (a table top's width)
@@ -152,7 +151,7 @@ class Surface(Feature):
     def render_pass(self, c: int, path: Path, last: bool) -> tuple[np.ndarray, float]:
         if self.wall is None:
             return render_scene(self.ctx.scene, self.plane, self.ctx.world, path, last=last)
-        distance = self.ctx.cfg.render.surface.backdrop * PART_SIZE * self.ctx.camera_scale
+        distance = self.ctx.cfg.render.surface.backdrop * REFERENCE_SIZE * self.ctx.camera_scale
         face_camera(self.wall, self.ctx.scene.camera, self.target, distance)
         try:
             return render_scene(self.ctx.scene, self.plane, self.ctx.world, path, last=last)
