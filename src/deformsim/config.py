@@ -279,6 +279,10 @@ class SurfaceConfig(_Model):
     scale: Annotated[Range, Within(hi=100, above=0)] = Field(
         (0.6, 1.6), description="texture scale: 1 = wood grain, weave, ridges at a real part's size"
     )
+    value: Annotated[UnitRange | None, identity.WHEN_SET] = Field(
+        None, description="the ground's brightness (HSV value, 0 black to 1 white) drawn per sample in place of its "
+        "kind's range, e.g. [0.15, 0.4] for a dark grey table; null = the kind's own range"
+    )
     backdrop: Annotated[float | None, identity.WHEN_SET] = Field(
         None, gt=0, le=100, description="a matte wall this many part sizes behind the part, facing each side view "
         "(cameras more than 45 degrees from straight down), coloured like the ground but darker; null = the HDRI "

@@ -86,7 +86,7 @@ def draw_surface(index: int, seed: int, cfg: Config, photos: list[str] | None = 
         return None
     rng = stream("surface", seed, index)
     kind = s.kinds[int(rng.integers(len(s.kinds)))]
-    c = SURFACE_COLOURS[kind]
+    c = SURFACE_COLOURS[kind] if s.value is None else {**SURFACE_COLOURS[kind], "value": s.value}
     hue, sat, val, rough = (float(rng.uniform(*c[k])) for k in ("hue", "saturation", "value", "roughness"))
     scale = float(np.exp(rng.uniform(np.log(s.scale[0]), np.log(s.scale[1]))))
     rotation, offset = float(rng.uniform(0, 360)), (float(rng.uniform()), float(rng.uniform()))
