@@ -227,3 +227,21 @@ def test_a_low_held_out_synthetic_accuracy_is_a_warning_banner(metrics):
     html = write_report(m, out).read_text()
     banner = html[html.index("class=warn"):html.index('class="hero"')]
     assert "variant black: held-out synthetic accuracy 0.50 is below 0.75" in banner and "backgrounds" not in banner
+
+
+def test_synthetic_samples_sit_beside_real_photos_of_their_class(metrics):
+    m, out = metrics
+    html = write_report(m, out).read_text()
+    sheet = html[html.index("Synthetic samples beside the real photos"):html.index("Confusion matrices")]
+    real = m["variants"]["backgrounds"]["real"]["predictions"]  # the headline model's photos
+    for y, cls in enumerate(("intact", "deformed")):
+        block = sheet[sheet.index(f"<h3>{cls}</h3>"):]
+        block = block[:block.index("<h3>", 4)] if "<h3>" in block[4:] else block
+        shown = re.findall(r'title="([^"]+)"><img[^>]*>([^<]*)</div>', block)
+        assert [p for p, label in shown if label == "real photos"] == [p["path"] for p in real if p["y"] == y]
+        assert [p for p, label in shown if label == "black"] == [x["path"] for x in m["variants"]["black"]["examples"]
+                                                                 if x["y"] == y]
+    for v in m["variants"].values():
+        v.pop("real")
+    html = write_report(m, out).read_text()
+    assert "<h2>Synthetic samples</h2>" in html and ">real photos</div>" not in html

@@ -19,6 +19,8 @@ from deformsim.report.figures import curves_png, data_uri, png_file_uri, reliabi
 from deformsim.report.predictions import predictions_section, thumb
 from deformsim.report.settings import settings_section
 
+REAL_SHOWN = 6  # real photos shown per class beside the synthetic samples
+
 KEYS = (("accuracy", "Acc"), ("f1", "F1"), ("precision", "Prec."), ("recall", "Recall"))
 PARTS = (("split", "Synthetic test (held out)"), ("real", "Real test (sim-to-real)"))
 WITH_INTERVAL = ("accuracy", "f1")
@@ -286,6 +288,22 @@ def _settings(metrics: dict) -> str:
     return settings_section(metrics, rows)
 
 
+def _samples(metrics: dict) -> str:
+    """Per class, a row of real photos (when the headline test is on them) above each variant's synthetic examples
+    of that class: the first look at whether the renders resemble the photos."""
+    head = _headline(metrics)
+    real = head[2]["predictions"] if head and head[1] == "real" else []
+    out = []
+    for y, name in enumerate(CLASSES):
+        photos = [p for p in real if p["y"] == y]
+        rows = [("real photos", photos[:: max(1, len(photos) // REAL_SHOWN)][:REAL_SHOWN])] if photos else []
+        rows += [(v, [x for x in e.get("examples", []) if x["y"] == y]) for v, e in metrics["variants"].items()]
+        out.append(f"<h3>{name}</h3>" + "".join(
+            f"<div class=grid>{''.join(thumb(x['path'], escape(label)) for x in xs)}</div>" for label, xs in rows if xs))
+    title = "Synthetic samples beside the real photos" if real else "Synthetic samples"
+    return f"<h2>{title}</h2>" + "".join(out)
+
+
 def render_html(metrics: dict, out_dir: Path) -> str:
     """The report page as a string."""
     cms = "".join(
@@ -293,12 +311,6 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         for v, part, r in _results(metrics)
     )
     curves = curves_png({v: (e.get("real") or e.get("split") or {}).get("history") for v, e in metrics["variants"].items()})
-    samples = "".join(
-        f"<h3>{escape(v)}</h3><div class=grid>"
-        + "".join(thumb(x["path"], CLASSES[x["y"]]) for x in e.get("examples", []))
-        + "</div>"
-        for v, e in metrics["variants"].items()
-    )
     parts = [
         "<!DOCTYPE html><html lang=en><head><meta charset=utf-8>",
         "<meta name=viewport content='width=device-width,initial-scale=1'>",
@@ -313,6 +325,7 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         "scene so that no view of a test scene is seen in training. Real test: model trained on all images of "
         "the variant.</p>",
         _table2(metrics),
+        _samples(metrics),
         f"<h2>Confusion matrices</h2><div class=cms>{cms}</div>" if cms else "",
         _calibration(metrics),
         fewshot_section(metrics.get("fewshot")),
@@ -325,7 +338,6 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         + "".join(f"<img src='{data_uri(c, 'image/png')}' alt='training curves'>" for c in curves) + "</div>"
         if curves else "",
         predictions_section(_headline(metrics)),
-        f"<h2>Synthetic samples</h2>{samples}",
         _settings(metrics),
         "</main></body></html>",
     ]
