@@ -1,11 +1,11 @@
 """Preview sheet: synthetic images of a dataset's variants beside real photos, to judge them at thumbnail size.
 
     .venv/bin/python bench/beside_real.py DATA --variant NAME [--variant NAME ...] [--real DIR] [--n 5]
-        [--label deformed] [--seed 0] [--out sheet.png]
+        [--label intact] [--label deformed] [--seed 0] [--out sheet.png]
 
-One row of ``--n`` real photos of ``--label`` (centre-cropped square, as a person frames them), then one row per
+Per ``--label``, one row of ``--n`` real photos of that label (centre-cropped square, as a person frames them), then one row per
 variant (``black``, ``surface`` for the rendered surface scenes, or a composited variant's name) of as many
-images of the same label, drawn with ``--seed``. Without --real it uses ../shared/data/real_cans_dev.
+images of that label, drawn with ``--seed``. Without --real it uses ../shared/data/real_cans_dev.
 """
 
 from __future__ import annotations
@@ -30,24 +30,26 @@ def main() -> None:
     ap.add_argument("--variant", action="append", required=True)
     ap.add_argument("--real", type=Path, default=SHARED / "real_cans_dev")
     ap.add_argument("--n", type=int, default=5)
-    ap.add_argument("--label", default="deformed", choices=["intact", "deformed"])
+    ap.add_argument("--label", action="append", choices=["intact", "deformed"], help="repeat for both; default deformed")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--tile", type=int, default=192)
     ap.add_argument("--out", type=Path, default=Path("sheet.png"))
     a = ap.parse_args()
-    real = real_table(a.real)
-    real = real[real["label"] == a.label].sample(n=a.n, random_state=a.seed)
-    images = [ImageOps.fit(open_rgb(p), (a.tile, a.tile)) for p in real["path"]]  # centre-cropped square
-    captions = [(f"real {a.label}", COLORS[a.label])] * a.n
-    for name in a.variant:
-        if name == "surface":
-            df = read_manifest(a.data)
-            df = df.assign(path=[str(Layout(a.data).root / p) for p in df["surface"]])
-        else:
-            df = variant_table(a.data, name)
-        df = df[df["label"] == a.label].sample(n=a.n, random_state=a.seed)
-        images += [open_rgb(p) for p in df["path"]]
-        captions += [(f"{name} {r.id}", COLORS[a.label]) for r in df.itertuples()]
+    table = real_table(a.real)
+    images, captions = [], []
+    for label in a.label or ["deformed"]:
+        real = table[table["label"] == label].sample(n=a.n, random_state=a.seed)
+        images += [ImageOps.fit(open_rgb(p), (a.tile, a.tile)) for p in real["path"]]  # centre-cropped square
+        captions += [(f"real {label}", COLORS[label])] * a.n
+        for name in a.variant:
+            if name == "surface":
+                df = read_manifest(a.data)
+                df = df.assign(path=[str(Layout(a.data).root / p) for p in df["surface"]])
+            else:
+                df = variant_table(a.data, name)
+            df = df[df["label"] == label].sample(n=a.n, random_state=a.seed)
+            images += [open_rgb(p) for p in df["path"]]
+            captions += [(f"{name} {r.id}", COLORS[label]) for r in df.itertuples()]
     grid(images, captions, tile=a.tile, cols=a.n).save(a.out)
     print(a.out)
 
