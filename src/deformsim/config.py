@@ -533,6 +533,11 @@ class TrainConfig(_Model):
         1, ge=1, le=16, description="models trained with seeds seed, seed+1, ... and saved as one that predicts their "
         "mean probability (they share the frozen layers, so their cached features too)"
     )
+    min_region: float = Field(
+        0.0, ge=0, lt=1, description="deformed images whose deformed region (render.dense's region map) covers less "
+        "than this share of the visible part are left out of training and the synthetic test: their damage faces "
+        "away from the camera or is too small to see, so their label would be wrong; 0 keeps every image"
+    )
     tta_flip: bool = Field(
         False, description="test time: average the prediction of each image and its mirror image"
     )
@@ -571,6 +576,9 @@ class Config(_Model):
         views = len(self.camera.azimuth_quadrants)
         if self.generate.n % views:
             raise ValueError(f"generate.n={self.generate.n} must be a multiple of the {views} cameras")
+        if self.train.min_region and not self.render.dense:
+            raise ValueError(f"train.min_region={self.train.min_region:g} needs render.dense: true (each image's "
+                             "deformed region)")
         return self
 
 

@@ -11,14 +11,18 @@ from deformsim.dataset.layout import Layout
 from deformsim.dataset.real import real_table
 from deformsim.dataset.variants import variant_table
 from deformsim.errors import UserError
+from deformsim.log import get_logger
+
+log = get_logger(__name__)
 
 
-def load_table(data: Path, variant: str | None, default_variant: str) -> pd.DataFrame:
-    """A generated dataset's variant table, or a folder of photos in intact/ and deformed/ subfolders, checked by
-    :func:`check_table`."""
+def load_table(data: Path, variant: str | None, default_variant: str, min_region: float = 0.0) -> pd.DataFrame:
+    """A generated dataset's variant table (less its unseen damage, :func:`drop_unseen`), or a folder of photos in
+    intact/ and deformed/ subfolders, checked by :func:`check_table`."""
     if Layout(data).manifest.is_file():
         name = variant or default_variant
-        table, source = variant_table(data, name), f"variant '{name}' of {data}"
+        source = f"variant '{name}' of {data}"
+        table = drop_unseen(variant_table(data, name), min_region, source)
     elif variant:
         raise UserError(f"--variant {variant} needs a generated dataset, but {data} has no manifest.parquet")
     else:
@@ -45,6 +49,20 @@ def check_table(table: pd.DataFrame, source: str = "the image table") -> None:
     gone = [p for p in table["path"] if not Path(p).is_file()]
     if gone:
         raise UserError(f"{source}: {len(gone)} image(s) missing, e.g. {gone[0]}")
+
+
+def drop_unseen(table: pd.DataFrame, min_region: float, source: str = "the image table") -> pd.DataFrame:
+    """``table`` without its deformed images whose ``region_fraction`` (the share of the visible part that is
+    deformed) is below ``min_region`` (``train.min_region``); ``table`` itself when ``min_region`` is 0."""
+    if not min_region:
+        return table
+    if "region_fraction" not in table.columns:
+        raise UserError(f"train.min_region {min_region:g} needs the deformed region of every image: {source} was "
+                        "rendered without render.dense (set render.dense: true and generate again)")
+    keep = (table["y"] == 0) | (table["region_fraction"] >= min_region)
+    log.info("train.min_region %g: %d of %d deformed images of %s left out (damage too small or out of view)",
+             min_region, int((~keep).sum()), int((table["y"] == 1).sum()), source)
+    return table[keep].reset_index(drop=True)
 
 
 def split(table: pd.DataFrame, fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:

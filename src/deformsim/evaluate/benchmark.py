@@ -98,6 +98,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     compositing settings reuse the renders; composited variants are named by their settings too.
     """
     from deformsim.dataset.real import real_table
+    from deformsim.dataset.tables import drop_unseen
     from deformsim.dataset.variants import variant_table
     from deformsim.evaluate.experiments import grouped_split
     from deformsim.evaluate.metrics import compute_metrics
@@ -139,7 +140,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
                     comp = cfg.composite if variant != "procedural" else cfg.composite.model_copy(update={"backgrounds": None})
                     name = f"{variant}-{digest(comp.model_dump(mode='json'))[:8]}-seed{c}"
                     _composite_once(folder, comp, name, c, progress)
-                table = variant_table(folder, name)
+                table = drop_unseen(variant_table(folder, name), cfg.train.min_region, name)
                 for k in range(plan.train_seeds):
                     train_cfg = cfg.train.model_copy(update={"seed": cfg.train.seed + k})
                     log.info("run %d/%d: %s, data seed %d, background seed %s, train seed %d",

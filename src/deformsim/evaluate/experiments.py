@@ -26,7 +26,7 @@ from deformsim.atomic import write_bytes, write_json
 from deformsim.config import TrainConfig
 from deformsim.dataset.images import open_rgb
 from deformsim.dataset.real import real_table
-from deformsim.dataset.tables import split
+from deformsim.dataset.tables import drop_unseen, split
 from deformsim.dataset.variants import list_variants, variant_table
 from deformsim.errors import UserError
 from deformsim.evaluate.dense_experiments import plan as plan_dense
@@ -144,7 +144,7 @@ def _load_tables(data_root: Path, cfg: TrainConfig) -> tuple[dict[str, pd.DataFr
     chosen = [v for v in cfg.variants if v in available]
     if not chosen:
         raise UserError(f"none of the variants {cfg.variants} is in {data_root} (have: {', '.join(available)})")
-    tables = {v: variant_table(data_root, v) for v in chosen}
+    tables = {v: drop_unseen(variant_table(data_root, v), cfg.min_region, f"variant '{v}'") for v in chosen}
     for v, t in tables.items():
         if t["y"].nunique() < 2:
             raise UserError(f"variant '{v}' has only {t['label'].iloc[0]} images: training needs both classes")

@@ -42,7 +42,7 @@ def train_model(data: Path, cfg: TrainConfig, out: Path, variant: str | None = N
 
     out = check_folder_target(out, "--out")
     check_apart(out, "--out", {"training data": data, "--adapt photos": adapt})
-    table = load_table(data, variant, cfg.variants[0])
+    table = load_table(data, variant, cfg.variants[0], cfg.min_region)
     identity = {"settings": cfg.model_dump(mode="json"),
                 "inputs": {"variant": variant or cfg.variants[0], "images": images_digest(table, data)}}
     claim(out, "model", identity, overwrite)
