@@ -3,9 +3,9 @@
     .venv/bin/python bench/beside_real.py DATA --variant NAME [--variant NAME ...] [--real DIR] [--n 5]
         [--label intact] [--label deformed] [--seed 0] [--out sheet.png]
 
-Per ``--label``, one row of ``--n`` real photos of that label (centre-cropped square, as a person frames them), then one row per
-variant (``black``, ``surface`` for the rendered surface scenes, or a composited variant's name) of as many
-images of that label, drawn with ``--seed``. Without --real it uses ../shared/data/real_cans_dev.
+Per ``--label``, one row of ``--n`` real photos of that label (centre-cropped square, as a person frames them),
+then one row per variant (``black``, ``surface`` for the rendered surface scenes, or a composited variant's name)
+of as many images of that label, drawn with ``--seed``. Without --real it uses ../shared/data/real_cans_dev.
 """
 
 from __future__ import annotations
@@ -36,17 +36,19 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("sheet.png"))
     a = ap.parse_args()
     table = real_table(a.real)
+    synthetic = {}  # each variant's table, read once for every label
+    for name in a.variant:
+        if name == "surface":
+            df = read_manifest(a.data)
+            synthetic[name] = df.assign(path=[str(Layout(a.data).root / p) for p in df["surface"]])
+        else:
+            synthetic[name] = variant_table(a.data, name)
     images, captions = [], []
     for label in a.label or ["deformed"]:
         real = table[table["label"] == label].sample(n=a.n, random_state=a.seed)
         images += [ImageOps.fit(open_rgb(p), (a.tile, a.tile)) for p in real["path"]]  # centre-cropped square
         captions += [(f"real {label}", COLORS[label])] * a.n
-        for name in a.variant:
-            if name == "surface":
-                df = read_manifest(a.data)
-                df = df.assign(path=[str(Layout(a.data).root / p) for p in df["surface"]])
-            else:
-                df = variant_table(a.data, name)
+        for name, df in synthetic.items():
             df = df[df["label"] == label].sample(n=a.n, random_state=a.seed)
             images += [open_rgb(p) for p in df["path"]]
             captions += [(f"{name} {r.id}", COLORS[label]) for r in df.itertuples()]
