@@ -80,6 +80,19 @@ def moved(spec, tin_mm: np.ndarray, key: str) -> tuple[np.ndarray, np.ndarray]:
     return centred, lattice_displacement(field, spec.lattice.points, centred / size) * size
 
 
+def test_the_ends_region_takes_the_end_panels_and_leaves_the_side_wall(tin):
+    """The spec's lacquered ends: every face whose centre is on the end panels (inside the seams), none of the wall."""
+    from deformsim.spec.lattice_ops import select_vertices
+
+    (ends,) = load_spec(SPEC).material.regions
+    centres, normals = tin.mean(1), np.cross(tin[:, 1] - tin[:, 0], tin[:, 2] - tin[:, 0])
+    chosen = select_vertices(centres, normals, min_normal_angle=ends.where.min_normal_angle)
+    radius = np.hypot(centres[:, 0], centres[:, 1])
+    panel = radius < 0.7 * radius.max()
+    wall = (centres[:, 2] > 15) & (centres[:, 2] < 95)  # the beaded wall, seams and their plain bands left out
+    assert chosen[panel].mean() > 0.95 and not chosen[wall].any()
+
+
 def test_each_key_deforms_the_tin_where_it_says(tin):
     spec = load_spec(SPEC)
     for name, (azimuth, at) in {"dent_finger": (40, 0.38), "dent_thumb": (60, 0.62), "dent_fist": (25, 0.5),

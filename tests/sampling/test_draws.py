@@ -139,3 +139,42 @@ def test_a_surface_value_range_sets_the_grounds_brightness_and_moves_nothing_els
     assert [dataclasses.replace(d, value=0) for d in dark] == [dataclasses.replace(o, value=0) for o in own]
     with pytest.raises(Exception, match="value"):
         load_config("quick", {"render.surface": {"kinds": ["concrete"], "value": [0.5, 1.5]}})
+
+
+def test_material_regions_draw_from_their_own_stream_within_their_ranges(tmp_path):
+    from deformsim.spec.model import Spec
+
+    spec = {"name": "tin", "families": [{"name": "f", "keys": [{"name": "k", "ops": [{"op": "compress", "amount": 0.1}]}]}],
+            "material": {"color": [[0.7, 0.7, 0.7], [0.9, 0.9, 0.9]]}}
+    plain = Spec.model_validate(spec)
+    spec["material"]["regions"] = [{"name": "ends", "where": {"min_normal_angle": 60},
+                                    "color": [[0.2, 0.2, 0.2], [0.3, 0.3, 0.3]], "roughness": [0.4, 0.5]}]
+    regions = Spec.model_validate(spec)
+    cfg = load_config("quick")
+    for i in range(20):
+        a, b = sample_params(i, 2, cfg, plain, HDRIS), sample_params(i, 2, cfg, regions, HDRIS)
+        assert "regions" not in a.material.to_dict(), "records of specs without regions stay as they were"
+        assert dataclasses.replace(b, material=dataclasses.replace(b.material, regions=())) == a
+        (ends,) = b.material.regions
+        assert all(0.2 <= c <= 0.3 for c in ends.color) and 0.4 <= ends.roughness <= 0.5
+        assert type(b).from_dict(b.to_dict()) == b and b == sample_params(i, 2, cfg, regions, HDRIS)
+    assert len({sample_params(i, 2, cfg, regions, HDRIS).material.regions for i in range(20)}) == 20
+
+
+def test_a_blended_colour_range_stays_on_its_line_and_moves_nothing_else():
+    from deformsim.spec.model import Spec
+
+    spec = {"name": "tin", "families": [{"name": "f", "keys": [{"name": "k", "ops": [{"op": "compress", "amount": 0.1}]}]}],
+            "material": {"color": [[0.6, 0.6, 0.62], [0.8, 0.8, 0.84]]}}
+    channels = Spec.model_validate(spec)
+    spec["material"]["color_draw"] = "blend"
+    blend = Spec.model_validate(spec)
+    cfg = load_config("quick")
+    tints = []
+    for i in range(20):
+        a, b = sample_params(i, 2, cfg, channels, HDRIS), sample_params(i, 2, cfg, blend, HDRIS)
+        r, g, bl = b.material.color
+        assert r == pytest.approx(g) and bl == pytest.approx(0.62 + (r - 0.6) * 1.1) and 0.6 <= r <= 0.8
+        assert dataclasses.replace(b, material=a.material) == a and b.material.roughness == a.material.roughness
+        tints.append(np.ptp(a.material.color[:2]))
+    assert max(tints) > 0.05, "drawn channel by channel, a range of greys gives tints"

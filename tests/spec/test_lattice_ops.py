@@ -50,3 +50,10 @@ def test_vertex_rules_combine():
     assert select_vertices(co, normals, height_band=(0.2, 0.8)).tolist() == [False, True, False, False]
     group = np.array([True, False, True, True])
     assert select_vertices(co, normals, in_group=group, max_normal_angle=20).tolist() == [True, False, False, False]
+
+
+def test_a_minimum_normal_angle_selects_the_ends():
+    normals = np.array([[1, 0, 0.0], [1, 0, 0.6], [0.2, 0, 1], [0, 0, -1.0]])
+    co = np.zeros((4, 3))
+    assert select_vertices(co, normals, min_normal_angle=60).tolist() == [False, False, True, True]
+    assert select_vertices(co, normals, min_normal_angle=20, max_normal_angle=60).tolist() == [False, True, False, False]

@@ -119,3 +119,21 @@ def test_a_materials_anisotropy_is_optional_and_bounded():
     for bad in ({"anisotropic": 1.5}, {"anisotropic": -0.1}, {"anisotropic_rotation": 2}):
         with pytest.raises(ValueError):
             Material(**bad)
+
+
+def test_material_regions_are_validated_in_one_line(tmp_path):
+    region = "{name: ends, where: {min_normal_angle: 60}, roughness: [0.3, 0.5]}"
+    path = tmp_path / "spec.yaml"
+    path.write_text(SPEC.replace("units: mm", f"units: mm\nmaterial: {{regions: [{region}]}}"))
+    (ends,) = load_spec(path).material.regions
+    assert ends.where.min_normal_angle == 60 and ends.roughness == (0.3, 0.5) and ends.kind == "metal"
+    for bad, needle in ((f"[{region}, {region}]", "duplicate region names: ends"),
+                        ("[{name: e, where: {}}]", "rule selects nothing"),
+                        ("[{name: e, where: {min_normal_angle: 60, max_normal_angle: 30}}]",
+                         "min_normal_angle 60.0 must be below max_normal_angle 30.0"),
+                        ("[{name: e, where: {min_normal_angle: 95}}]", "min_normal_angle: Input should be less than 90"),
+                        ("[{name: e, where: {group: g}, roughness: [0.5, 0.2]}]", "roughness")):
+        path.write_text(SPEC.replace("units: mm", f"units: mm\nmaterial: {{regions: {bad}}}"))
+        with pytest.raises(UserError) as err:
+            load_spec(path)
+        assert needle in str(err.value) and "\n" not in str(err.value), str(err.value)

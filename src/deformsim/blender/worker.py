@@ -63,6 +63,7 @@ def setup(msg: dict):
         from deformsim.blender.part.mesh_import import import_mesh
 
         obj = import_mesh(cfg.object.mesh, spec)
+        materials.assign_regions(obj, spec)
     materials.enable_appearance(obj, cfg.render.appearance is not None)  # before the crease layer, which follows it
     materials.enable_creases(obj, cfg.render.creases)
     lo, hi = mesh_bounds(obj)

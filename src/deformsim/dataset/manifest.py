@@ -58,7 +58,7 @@ def rows_for(p: SampleParams, layout: Layout, rendered: Rendered, camera_scale: 
             **{col: getattr(cam, field) for field, col in framing},
             "camera_scale": camera_scale,
             "design": json.dumps(p.design.__dict__ if p.design else None, sort_keys=True),
-            "material": json.dumps(p.material.__dict__ if p.material else None, sort_keys=True),
+            "material": json.dumps(p.material.to_dict() if p.material else None, sort_keys=True),
             "lights": json.dumps([lp.__dict__ for lp in p.lights], sort_keys=True),
             **shape_columns(p),
             **appearance_columns(p),

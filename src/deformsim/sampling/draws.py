@@ -8,11 +8,18 @@ from dataclasses import replace
 import numpy as np
 
 from deformsim.config import Config
-from deformsim.sampling.params import AppearanceParams, CameraParams, LightParams, ShapeParams, SurfaceParams
+from deformsim.sampling.params import (
+    AppearanceParams,
+    CameraParams,
+    LightParams,
+    MaterialParams,
+    ShapeParams,
+    SurfaceParams,
+)
 from deformsim.sampling.photos import artwork_photos, surface_photos
 from deformsim.sampling.streams import stream
 from deformsim.sampling.tables import CAN_SIZES, CUT_SIDES, LIGHT_KINDS, SURFACE_COLOURS
-from deformsim.spec.model import Spec
+from deformsim.spec.model import Finish, Spec
 
 
 def draw_source(index: int, seed: int, cfg: Config, spec: Spec) -> tuple[str, str, float]:
@@ -28,6 +35,17 @@ def draw_source(index: int, seed: int, cfg: Config, spec: Spec) -> tuple[str, st
     entry = f"{scenario.name}/{int(rng.integers(scenario.variants))}"
     amount = float(rng.uniform(*cfg.deform.bank_amount))
     return (source, entry, amount) if source != "lattice" else (source, "", 0.0)
+
+
+def draw_finish(rng: np.random.Generator, finish: Finish) -> MaterialParams:
+    """A colour (by the finish's ``color_draw``) and a roughness from ``rng``: a spec material's or region's."""
+    lo, hi = finish.color
+    if finish.color_draw == "blend":  # three draws all the same, so later draws stay where they are
+        t = float(rng.uniform(size=3)[0])
+        color = tuple(float(a + t * (b - a)) for a, b in zip(lo, hi))
+    else:
+        color = tuple(float(rng.uniform(a, b)) for a, b in zip(lo, hi))
+    return MaterialParams(color=color, roughness=float(rng.uniform(*finish.roughness)))
 
 
 def draw_drop(index: int, seed: int, upright: float) -> tuple[float, float, float, float]:

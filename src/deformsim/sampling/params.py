@@ -45,10 +45,11 @@ class CanDesign(Record):
 
 @dataclass(frozen=True)
 class MaterialParams(Record):
-    """A user mesh's surface colour and roughness."""
+    """A user mesh's surface colour and roughness, then each of the spec's material regions' (in its order)."""
 
     color: tuple[float, float, float]
     roughness: float
+    regions: tuple[MaterialParams, ...] = optional(())
 
 
 @dataclass(frozen=True)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from deformsim.config import Config
@@ -9,13 +11,14 @@ from deformsim.errors import UserError
 from deformsim.sampling.draws import (
     draw_appearance,
     draw_drop,
+    draw_finish,
     draw_framing,
     draw_lights,
     draw_shape,
     draw_source,
     draw_surface,
 )
-from deformsim.sampling.params import CameraParams, CanDesign, MaterialParams, SampleParams
+from deformsim.sampling.params import CameraParams, CanDesign, SampleParams
 from deformsim.sampling.streams import stream
 from deformsim.sampling.tables import BRAND_WORDS
 from deformsim.spec.model import Spec
@@ -113,11 +116,10 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
         )
     material = None
     if spec.material is not None:
-        lo_c, hi_c = spec.material.color
-        material = MaterialParams(
-            color=tuple(float(rng.uniform(a, b)) for a, b in zip(lo_c, hi_c)),
-            roughness=float(rng.uniform(*spec.material.roughness)),
-        )
+        material = draw_finish(rng, spec.material)
+        if spec.material.regions:
+            regions = stream("regions", seed, index)
+            material = replace(material, regions=tuple(draw_finish(regions, r) for r in spec.material.regions))
 
     pose_tilt = float(rng.uniform(*cfg.pose.tilt))
     pose_axis = float(rng.uniform(0, 360))

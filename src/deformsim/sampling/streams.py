@@ -29,6 +29,7 @@ STREAMS: dict[str, Stream] = {
     "framing": Stream(("index",), (5,), "each image's fill, offset, partial cut, lens and f-number (camera.*)"),
     "shape": Stream(("index",), (6,), "the part's shape: can size, scale, taper and bulge (object.shapes)"),
     "appearance": Stream(("index",), (7,), "the printed artwork, photo, gloss and ink roughness (render.appearance)"),
+    "regions": Stream(("index",), (8,), "the colour and roughness of each material region (spec material.regions)"),
     "image": Stream(("image",), (), "an image's composite: background, framing and camera effects"),
     "flip": Stream(("image",), (0xF11F,), "whether the composite mirrors the part (composite.flip_part)"),
     "shadow": Stream(("image",), (0x5AAD,), "how strongly the shadow darkens the background (composite.shadow_strength)"),

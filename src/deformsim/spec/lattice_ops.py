@@ -162,16 +162,20 @@ def select_vertices(
     *,
     in_group: np.ndarray | None = None,
     max_normal_angle: float | None = None,
+    min_normal_angle: float | None = None,
     height_band: tuple[float, float] | None = None,
 ) -> np.ndarray:
     """Boolean mask of vertices meeting every given criterion (see :class:`spec.SelectionRule`)."""
     mask = np.ones(len(co), dtype=bool)
     if in_group is not None:
         mask &= in_group
-    if max_normal_angle is not None:
+    if max_normal_angle is not None or min_normal_angle is not None:
         n = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-        # angle from horizontal = asin(|n_z|)
-        mask &= np.degrees(np.arcsin(np.clip(np.abs(n[:, 2]), 0, 1))) <= max_normal_angle
+        angle = np.degrees(np.arcsin(np.clip(np.abs(n[:, 2]), 0, 1)))  # from horizontal
+        if max_normal_angle is not None:
+            mask &= angle <= max_normal_angle
+        if min_normal_angle is not None:
+            mask &= angle >= min_normal_angle
     if height_band is not None:
         z = co[:, 2]
         lo, hi = z.min(), z.max()

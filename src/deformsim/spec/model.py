@@ -74,15 +74,16 @@ class Family(StrictModel):
 
 
 class SelectionRule(StrictModel):
-    """Which vertices displacement may move; every given criterion must hold.
+    """Which vertices (or faces) a rule selects; every given criterion must hold.
 
     ``group``: an existing vertex group (the built-in can makes ``side_wall``); ``max_normal_angle``: the
-    vertex normal is within this many degrees of horizontal; ``height_band``: the vertex height as a
-    fraction of the object's height lies inside this band.
+    normal is within this many degrees of horizontal; ``min_normal_angle``: at least this many (60: the ends of
+    an upright part); ``height_band``: the height as a fraction of the object's height lies inside this band.
     """
 
     group: str | None = None
     max_normal_angle: float | None = Field(None, gt=0, le=90)
+    min_normal_angle: float | None = Field(None, ge=0, lt=90)
     height_band: Range | None = None
 
     @field_validator("height_band")
@@ -96,8 +97,12 @@ class SelectionRule(StrictModel):
 
     @model_validator(mode="after")
     def _some(self) -> "SelectionRule":
-        if self.group is None and self.max_normal_angle is None and self.height_band is None:
-            raise ValueError("vertex rule selects nothing: give group, max_normal_angle or height_band")
+        if self.group is None and self.max_normal_angle is None and self.min_normal_angle is None \
+                and self.height_band is None:
+            raise ValueError("rule selects nothing: give group, max_normal_angle, min_normal_angle or height_band")
+        lo, hi = self.min_normal_angle, self.max_normal_angle
+        if lo is not None and hi is not None and lo >= hi:
+            raise ValueError(f"min_normal_angle {lo} must be below max_normal_angle {hi}")
         return self
 
 
@@ -130,11 +135,15 @@ class Openings(StrictModel):
         return self
 
 
-class Material(StrictModel):
-    """Randomised surface for user meshes (the built-in can has its own label and aluminium)."""
+class Finish(StrictModel):
+    """A randomised surface: kind, colour and roughness ranges drawn per sample, anisotropy."""
 
     kind: Literal["metal", "plastic", "painted"] = "metal"
     color: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.6, 0.6, 0.62), (0.9, 0.9, 0.92))
+    color_draw: Literal["channels", "blend"] = Field(
+        "channels", description="channels: each colour channel drawn in its own range (any colour of the box); blend: "
+        "one mix from the first colour to the second (a range of greys stays grey)"
+    )
     roughness: Range = (0.2, 0.45)
     anisotropic: float | None = Field(
         None, ge=0, le=1, description="highlights stretched along the brushing or rolling direction (0-1; metal 0.3, "
@@ -156,6 +165,29 @@ class Material(StrictModel):
     @classmethod
     def _rough(cls, v: Range) -> Range:
         return check_range(v, 0, 1, name="roughness")
+
+
+class Region(Finish):
+    """A part of the mesh with a finish of its own: the faces whose centre and normal meet ``where``."""
+
+    name: str
+    where: SelectionRule
+
+
+class Material(Finish):
+    """Randomised surface for user meshes (the built-in can has its own label and aluminium); ``regions`` give parts of
+    the mesh finishes of their own (a later region takes the faces it shares with an earlier one)."""
+
+    regions: list[Region] = []
+
+    @field_validator("regions")
+    @classmethod
+    def _names(cls, v: list[Region]) -> list[Region]:
+        names = [r.name for r in v]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"duplicate region names: {', '.join(dup)}")
+        return v
 
 
 class Lattice(StrictModel):

@@ -140,3 +140,49 @@ print(json.dumps(out))
 def test_the_spec_materials_anisotropy_reaches_the_bsdf_and_resets():
     out = run_blender(ANISOTROPY)
     assert sum(out, []) == pytest.approx([0.6, 0.25, 0.3, 0.0, 0.2, 0.0])  # metal's own 0.3 when none is given
+
+
+REGIONS = """
+import json, bpy, numpy as np
+from deformsim.blender.part import materials
+from deformsim.errors import UserError
+from deformsim.sampling import MaterialParams
+from deformsim.spec.model import Spec
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.mesh.primitive_cylinder_add(vertices=16, depth=2.0)
+tin = bpy.context.active_object
+def spec(**where):
+    return Spec.model_validate({"name": "tin", "families": [{"name": "f", "keys": [{"name": "k", "ops": [
+        {"op": "squeeze", "axis": "x", "amount": 0.1}]}]}], "material": {"kind": "metal", "regions": [
+        {"name": "top", "kind": "plastic", "roughness": [0.5, 0.6], "where": where}]}})
+s = spec(min_normal_angle=60, height_band=[0.5, 1])
+materials.assign_regions(tin, s)
+wall, top = MaterialParams((0.8, 0.8, 0.8), 0.1), MaterialParams((0.2, 0.3, 0.4), 0.55)
+materials.apply_material(tin, s.material, MaterialParams((0.8, 0.8, 0.8), 0.1, regions=(top,)))
+n_nodes = [len(m.node_tree.nodes) for m in tin.data.materials]
+materials.apply_material(tin, s.material, MaterialParams((0.7, 0.7, 0.7), 0.2, regions=(top,)))
+out = {"slots": [m.name for m in tin.data.materials], "nodes_stable": n_nodes == [len(m.node_tree.nodes) for m in
+       tin.data.materials]}
+out["faces"] = [[p.material_index, round(p.normal.z), round(p.center.z)] for p in tin.data.polygons]
+bsdf = materials._bsdf(tin.data.materials[1])
+out["top"] = [list(bsdf.inputs["Base Color"].default_value), bsdf.inputs["Roughness"].default_value,
+              bsdf.inputs["Metallic"].default_value]
+out["wall_rough"] = materials._bsdf(tin.data.materials[0]).inputs["Roughness"].default_value
+try:
+    materials.assign_regions(tin, spec(min_normal_angle=60, height_band=[0.3, 0.7]))
+    out["error"] = ""
+except UserError as exc:
+    out["error"] = str(exc)
+print(json.dumps(out))
+"""
+
+
+def test_a_material_region_gets_its_faces_and_its_own_finish():
+    out = run_blender(REGIONS)
+    assert out["slots"] == ["ObjectMaterial", "ObjectMaterial:top"] and out["nodes_stable"]
+    top = [f for f in out["faces"] if f[0] == 1]
+    assert top == [[1, 1, 1]], "only the upward face at the top takes the region"
+    assert all(f[0] == 0 for f in out["faces"] if f[1:] != [1, 1]), "the wall and the bottom keep the spec material"
+    assert out["top"][0] == pytest.approx([0.2, 0.3, 0.4, 1.0]) and out["top"][1:] == pytest.approx([0.55, 0.0])
+    assert out["wall_rough"] == pytest.approx(0.2)
+    assert out["error"] == "spec 'tin': material region 'top' selects no face of the mesh"

@@ -11,23 +11,18 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from deformsim.blender.part.selection import selected, vectors
 from deformsim.errors import UserError
-from deformsim.spec.lattice_ops import key_points, rest_lattice, select_vertices
+from deformsim.spec.lattice_ops import key_points, rest_lattice
 from deformsim.spec.model import Spec
 
 SLIDER_MAX = 3.0
 CRINKLE_GROUP = "crinkle"
 
 
-def _vectors(seq, attr: str) -> np.ndarray:
-    flat = np.empty(len(seq) * 3, dtype=np.float32)
-    seq.foreach_get(attr, flat)
-    return flat.reshape(-1, 3).astype(float)
-
-
 def mesh_bounds(obj) -> tuple[np.ndarray, np.ndarray]:
     """World-space (min, max) corners of the object's undeformed mesh."""
-    co = _vectors(obj.data.vertices, "co")
+    co = vectors(obj.data.vertices, "co")
     m = np.array(obj.matrix_world)
     world = co @ m[:3, :3].T + m[:3, 3]
     return world.min(0), world.max(0)
@@ -114,7 +109,7 @@ def _lattice(obj, spec: Spec):
     for axis in "uvw":
         setattr(data, f"interpolation_type_{axis}", "KEY_BSPLINE")
     rest = rest_lattice(spec.lattice.points)
-    if not np.allclose(_vectors(data.points, "co"), rest, atol=1e-5):
+    if not np.allclose(vectors(data.points, "co"), rest, atol=1e-5):
         raise RuntimeError("Blender's lattice point order differs from lattice_ops.rest_lattice")
     lat.shape_key_add(name="Basis", from_mix=False)
     for fam in spec.families:
@@ -129,23 +124,7 @@ def _lattice(obj, spec: Spec):
 
 
 def _crinkle_group(obj, spec: Spec) -> None:
-    rule = spec.displacement.vertex_rule
-    mesh = obj.data
-    in_group = None
-    if rule.group is not None:
-        group = obj.vertex_groups.get(rule.group)
-        if group is None:
-            raise UserError(f"spec '{spec.name}': vertex group '{rule.group}' not found on the mesh")
-        in_group = np.array([any(g.group == group.index and g.weight > 0 for g in v.groups) for v in mesh.vertices])
-    mask = select_vertices(
-        _vectors(mesh.vertices, "co"),
-        _vectors(mesh.vertices, "normal"),
-        in_group=in_group,
-        max_normal_angle=rule.max_normal_angle,
-        height_band=rule.height_band,
-    )
-    if not mask.any():
-        raise UserError(f"spec '{spec.name}': displacement.vertex_rule selects no vertex of the mesh")
+    mask = selected(obj, spec.displacement.vertex_rule, f"spec '{spec.name}': displacement.vertex_rule")
     obj.vertex_groups.new(name=CRINKLE_GROUP).add(np.flatnonzero(mask).tolist(), 1.0, "REPLACE")
 
 

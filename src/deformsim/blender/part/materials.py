@@ -1,4 +1,4 @@
-"""Materials: the can's printed label and brushed aluminium, and randomised user-mesh surfaces.
+"""Materials: the can's printed label and brushed aluminium, and randomised user-mesh surfaces (one per spec region).
 
 Everything is created once and updated in place on later calls, so memory stays bounded over thousands
 of samples: one label image ("LabelImage") whose pixels are overwritten, one material per role. With
@@ -14,8 +14,9 @@ import numpy as np
 
 from deformsim.blender.part.can_label import make_label
 from deformsim.blender.part.label_art import _photo_pixels, make_artwork
+from deformsim.blender.part.selection import selected
 from deformsim.sampling import AppearanceParams, CanDesign, MaterialParams
-from deformsim.spec.model import Material
+from deformsim.spec.model import Finish, Material, Spec
 
 LABEL_IMAGE = "LabelImage"
 OBJECT_MATERIAL = "ObjectMaterial"
@@ -39,6 +40,7 @@ INK_METALLIC, METAL_ROUGHNESS = 0.2, 0.22  # printed basecoat and ink; bare or m
 TEXTURE_SIZE = 512
 _appearance = False  # set by enable_appearance: OBJECT_MATERIAL gets the texture photo when it is created
 _part_size = 1.0  # metres: the user mesh's largest dimension (the texture's projection scale)
+_faces: np.ndarray | None = None  # set by assign_regions: each face's material slot (None: all the spec material's)
 
 
 def _material(name: str) -> tuple[bpy.types.Material, bool]:
@@ -279,29 +281,50 @@ def set_label(design: CanDesign, width: int = 512, height: int = 256, look: Appe
     _socket(label.node_tree.nodes[FINISH_IMAGE + "Roughness"].inputs, "A_Float").default_value = look.roughness
 
 
-def apply_material(obj: bpy.types.Object, spec_material: Material, params: MaterialParams,
-                   look: AppearanceParams | None = None) -> None:
-    """Give a user mesh its one material: ``spec_material.kind`` with ``params`` colour and roughness and the spec's
-    anisotropy; with ``look`` (``render.appearance``) its texture photo (or none) and gloss."""
-    mat, new = _material(OBJECT_MATERIAL)
+def assign_regions(obj: bpy.types.Object, spec: Spec) -> None:
+    """Which material slot each face of a user mesh takes: 0 the spec material's, 1 + i its region i's (a later region
+    takes the faces it shares with an earlier one). Once per process, on the mesh as built, before
+    :func:`apply_material`; raises :class:`UserError` naming a region that selects no face."""
+    global _faces
+    _faces = np.zeros(len(obj.data.polygons), np.int32)
+    for i, region in enumerate(spec.material.regions if spec.material else []):
+        _faces[selected(obj, region.where, f"spec '{spec.name}': material region '{region.name}'", faces=True)] = i + 1
+
+
+def _finish(name: str, finish: Finish, params: MaterialParams, texture: bool = False) -> bpy.types.Material:
+    """The material ``name`` (created on first use with its bump, ``texture`` nodes and the crease layer when on) set to
+    ``finish.kind`` with ``params`` colour and roughness and the finish's anisotropy."""
+    mat, new = _material(name)
     bsdf = _bsdf(mat)
     if new:
         _bump(mat, bsdf, 1200.0, 0.02)
-        if _appearance:
+        if texture:
             _texture_nodes(mat, bsdf)
     if _creases:
         add_creases(mat)
-    _set(bsdf, {**_KINDS[spec_material.kind], "Base Color": (*params.color, 1.0), "Roughness": params.roughness,
-                "Coat Roughness": 0.1, "Anisotropic Rotation": spec_material.anisotropic_rotation})
-    if spec_material.anisotropic is not None:  # Cycles' default tangent runs around the object's up axis
-        _set(bsdf, {"Anisotropic": spec_material.anisotropic})
+    _set(bsdf, {**_KINDS[finish.kind], "Base Color": (*params.color, 1.0), "Roughness": params.roughness,
+                "Coat Roughness": 0.1, "Anisotropic Rotation": finish.anisotropic_rotation})
+    if finish.anisotropic is not None:  # Cycles' default tangent runs around the object's up axis
+        _set(bsdf, {"Anisotropic": finish.anisotropic})
+    return mat
+
+
+def apply_material(obj: bpy.types.Object, spec_material: Material, params: MaterialParams,
+                   look: AppearanceParams | None = None) -> None:
+    """Give a user mesh its materials: the spec material's with ``params``, with ``look`` (``render.appearance``) its
+    texture photo (or none) and gloss; each region's with its ``params.regions`` entry, on the faces of
+    :func:`assign_regions`."""
+    mat = _finish(OBJECT_MATERIAL, spec_material, params, _appearance)
     if look is not None and TEXTURE_IMAGE in mat.node_tree.nodes:
-        _set_texture(mat, bsdf, look)
+        _set_texture(mat, _bsdf(mat), look)
+    slots = [mat] + [_finish(f"{OBJECT_MATERIAL}:{r.name}", r, p) for r, p in zip(spec_material.regions, params.regions)]
     mats = obj.data.materials
-    if list(mats) != [mat]:
+    if list(mats) != slots:
         mats.clear()
-        mats.append(mat)
-        obj.data.polygons.foreach_set("material_index", np.zeros(len(obj.data.polygons), np.int32))
+        for m in slots:
+            mats.append(m)
+        faces = _faces if _faces is not None else np.zeros(len(obj.data.polygons), np.int32)
+        obj.data.polygons.foreach_set("material_index", faces)
 
 
 def _set_texture(mat: bpy.types.Material, bsdf: bpy.types.Node, look: AppearanceParams) -> None:

@@ -115,6 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     import sys
 
     from deformsim.blender.motion.rig import build_rig
+    from deformsim.blender.part.materials import assign_regions
     from deformsim.spec.model import load_spec
 
     args = sys.argv[1:] if argv is None else argv
@@ -127,7 +128,8 @@ def main(argv: list[str] | None = None) -> int:
     lo, hi = mesh_bounds(obj)  # before the rig's lattice modifier
     probed = {"size": (hi - lo).tolist(), "vertices": len(obj.data.vertices)}
     try:
-        build_rig(obj, spec)  # the vertex rule and opening keys fail here, not in a worker mid-run
+        assign_regions(obj, spec)  # the material regions, vertex rule and opening keys fail here, not mid-run
+        build_rig(obj, spec)
     except UserError as exc:
         probed["rig"] = str(exc)  # reported after the checks of the shape itself
     print(json.dumps(probed))
