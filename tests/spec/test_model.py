@@ -127,6 +127,8 @@ def test_material_regions_are_validated_in_one_line(tmp_path):
     path.write_text(SPEC.replace("units: mm", f"units: mm\nmaterial: {{regions: [{region}]}}"))
     (ends,) = load_spec(path).material.regions
     assert ends.where.min_normal_angle == 60 and ends.roughness == (0.3, 0.5) and ends.kind == "metal"
+    proc = cli("spec", "check", str(path))
+    assert proc.returncode == 0 and "material regions ends" in proc.stdout
     for bad, needle in ((f"[{region}, {region}]", "duplicate region names: ends"),
                         ("[{name: e, where: {}}]", "rule selects nothing"),
                         ("[{name: e, where: {min_normal_angle: 60, max_normal_angle: 30}}]",

@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Optional
 
 import typer
+from rich.markup import escape
 
 from deformsim.cli.common import ConfigArgs, console, err_console, fail_cleanly
 
@@ -27,10 +28,13 @@ def register(app: typer.Typer) -> None:
         spec, mesh = checked.spec, ""
         if checked.size is not None:
             mesh = f"; mesh {object_.name}: {' x '.join(f'{v * 1000:.0f}' for v in checked.size)} mm"
-        console.print(
-            f"[green]ok[/] {file}: '{spec.name}', {len(spec.families)} families, {len(spec.key_names)} keys, "
-            f"{len(spec.texture_names)} displacement textures, lattice {'x'.join(map(str, spec.lattice.points))}{mesh}"
-        )
+        regions = [r.name for r in spec.material.regions] if spec.material else []
+        regions_shown = f", material regions {', '.join(regions)}" if regions else ""
+        console.print("[green]ok[/] " + escape(
+            f"{file}: '{spec.name}', {len(spec.families)} families, {len(spec.key_names)} keys, "
+            f"{len(spec.texture_names)} displacement textures{regions_shown}, "
+            f"lattice {'x'.join(map(str, spec.lattice.points))}{mesh}"
+        ))
         if checked.hint:
             err_console.print(f"[yellow]hint:[/] {checked.hint}", highlight=False, soft_wrap=True)
         if checked.small:

@@ -47,7 +47,7 @@ def check_part(spec: Spec, mesh: Path | None) -> None:
 def check_probe(mesh: Path, probed: dict) -> list[float]:
     """The size (metres) the mesh probe measured of ``mesh``, or one line when it is no solid part (not finite,
     fewer than 4 vertices, flat, or outside :data:`PART_SIZE`) or the spec cannot rig it (``rig``: a vertex rule
-    that selects nothing, opening keys that do not fit)."""
+    or material region that selects nothing, opening keys that do not fit)."""
     size = [float(v) for v in probed["size"]]
     if not all(math.isfinite(v) for v in size):
         raise UserError(f"mesh {mesh} has a size that is not finite ({size})")
