@@ -54,6 +54,13 @@ def check_range(v: Range, lo: float | None = None, hi: float | None = None, name
     return v
 
 
+def check_unique(names: list[str], what: str) -> None:
+    """A ValueError naming, in order, the names given more than once ("duplicate WHAT names: a, b")."""
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"duplicate {what} names: {', '.join(dup)}")
+
+
 class _Check:
     """``Annotated`` metadata whose ``check(value, field_name)`` runs on the parsed value."""
 

@@ -15,7 +15,7 @@ from typing import Annotated, Literal
 from pydantic import ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from deformsim.errors import UserError
-from deformsim.schema import Range, StrictModel, check_range, first_error, read_mapping, shown
+from deformsim.schema import Range, StrictModel, check_range, check_unique, first_error, read_mapping, shown
 from deformsim.spec.lattice_ops import OPERATIONS
 from deformsim.spec.simulation import Simulation
 
@@ -183,10 +183,7 @@ class Material(Finish):
     @field_validator("regions")
     @classmethod
     def _names(cls, v: list[Region]) -> list[Region]:
-        names = [r.name for r in v]
-        dup = sorted({n for n in names if names.count(n) > 1})
-        if dup:
-            raise ValueError(f"duplicate region names: {', '.join(dup)}")
+        check_unique([r.name for r in v], "region")
         return v
 
 
@@ -230,9 +227,7 @@ class Spec(StrictModel):
             raise ValueError("spec declares no deformation families")
         names = [k.name for f in self.families for k in f.keys]
         names += [t.name for t in (self.displacement.textures if self.displacement else [])]
-        dup = {n for n in names if names.count(n) > 1}
-        if dup:
-            raise ValueError(f"duplicate key names: {', '.join(sorted(dup))}")
+        check_unique(names, "key")
         fams = [f.name for f in self.families]
         if len(set(fams)) != len(fams):
             raise ValueError("duplicate family names")

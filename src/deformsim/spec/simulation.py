@@ -14,7 +14,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
-from deformsim.schema import Range, StrictModel, check_range
+from deformsim.schema import Range, StrictModel, check_range, check_unique
 
 KINDS = ("axial_crush", "lateral_squash", "impact_dent", "crumple")
 
@@ -78,10 +78,7 @@ class Simulation(StrictModel):
     def _names(self) -> "Simulation":
         if not self.scenarios:
             raise ValueError("simulation declares no scenarios")
-        names = [s.name for s in self.scenarios]
-        dup = sorted({n for n in names if names.count(n) > 1})
-        if dup:
-            raise ValueError(f"duplicate scenario names: {', '.join(dup)}")
+        check_unique([s.name for s in self.scenarios], "scenario")
         return self
 
 

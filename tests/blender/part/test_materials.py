@@ -157,7 +157,7 @@ def spec(**where):
         {"name": "top", "kind": "plastic", "roughness": [0.5, 0.6], "where": where}]}})
 s = spec(min_normal_angle=60, height_band=[0.5, 1])
 materials.assign_regions(tin, s)
-wall, top = MaterialParams((0.8, 0.8, 0.8), 0.1), MaterialParams((0.2, 0.3, 0.4), 0.55)
+top = MaterialParams((0.2, 0.3, 0.4), 0.55)
 materials.apply_material(tin, s.material, MaterialParams((0.8, 0.8, 0.8), 0.1, regions=(top,)))
 n_nodes = [len(m.node_tree.nodes) for m in tin.data.materials]
 materials.apply_material(tin, s.material, MaterialParams((0.7, 0.7, 0.7), 0.2, regions=(top,)))
