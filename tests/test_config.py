@@ -32,6 +32,9 @@ def test_overrides_apply_and_none_is_ignored():
         ({"render.denoise_prefilter": "slow"}, "render.denoise_prefilter"),
         ({"render.denoise_input": "rgb_normal"}, "render.denoise_input"),
         ({"render.tile_size": 4}, "render.tile_size"),
+        ({"render.region_visible": {"turn_deg": 90}}, "render.region_visible.turn_deg"),
+        ({"render.region_visible": {"across_px": 0}}, "render.region_visible.across_px"),
+        ({"render.dense": False, "render.region_visible": {}}, "render.region_visible needs render.dense: true"),
     ],
 )
 def test_bad_values_are_named(overrides, needle):

@@ -268,6 +268,22 @@ class DeformConfig(_Model):
 SURFACE_KINDS = ("wood", "paper", "concrete", "metal", "cloth", "conveyor", "photo")
 
 
+class VisibleRegionConfig(_Model):
+    """``render.region_visible``: the region map keeps the displaced pixels that show it. Displacement is measured
+    after taking out the part's change of size along its axes (``object.shapes`` draws that for intact parts too);
+    movement along the line of sight that barely turns the surface (an end pushed straight in, a lid tilted a
+    little, seen from above) leaves the image as it was."""
+
+    across_px: float = Field(
+        2.0, gt=0, le=100, description="a displaced pixel shows where it moved at least this far across the image "
+        "(perpendicular to the line of sight), in pixels at the render size"
+    )
+    turn_deg: float = Field(
+        15.0, gt=0, lt=90, description="or where its surface turned by at least this angle, in degrees (15: a matte "
+        "surface's shading changes by 3 %)"
+    )
+
+
 class SurfaceConfig(_Model):
     """``render.surface``: a textured ground plane under the part, rendered with it as a whole scene."""
 
@@ -339,6 +355,10 @@ class RenderConfig(_Model):
     )
     dense: bool = Field(False, description="also write mask, depth, normal, deformation and region maps per image")
     region_threshold_mm: float = Field(1.0, gt=0, le=1000, description="deformation (mm) from which a pixel is in the region")
+    region_visible: Annotated[VisibleRegionConfig | None, identity.WHEN_SET] = Field(
+        None, description="count in the region only the deformation that shows in the image (a deformed image whose "
+        "damage does not show is no deformed image for train.min_region); null = every displaced pixel"
+    )
     creases: bool = Field(False, description="scuffed bare metal on sharp ridges and darkened folds (Cycles pointiness)")
     shadow: bool = Field(
         False, description="also write images/shadow/ID.png: the shadow and contact occlusion the part casts on a "
@@ -576,6 +596,8 @@ class Config(_Model):
         views = len(self.camera.azimuth_quadrants)
         if self.generate.n % views:
             raise ValueError(f"generate.n={self.generate.n} must be a multiple of the {views} cameras")
+        if self.render.region_visible and not self.render.dense:
+            raise ValueError("render.region_visible needs render.dense: true (it shapes the region maps)")
         if self.train.min_region and not self.render.dense:
             raise ValueError(f"train.min_region={self.train.min_region:g} needs render.dense: true (each image's "
                              "deformed region)")

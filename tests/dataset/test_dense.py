@@ -65,3 +65,53 @@ def test_rigid_fit_removes_rotation_and_translation_but_not_deformation():
     r, t = rigid_fit(rest, dent)
     residual = np.linalg.norm(dent - (rest @ r.T + t), axis=1)
     assert residual[0] == max(residual) and 0.45 < residual[0] <= 0.5 and np.median(residual) < 0.01
+
+
+def _grid(n: int = 9) -> tuple[np.ndarray, np.ndarray]:
+    """A flat n x n grid of unit spacing in z = 0 and its triangles."""
+    xs, ys = np.meshgrid(np.arange(n, dtype=float), np.arange(n, dtype=float))
+    co = np.stack([xs.ravel(), ys.ravel(), np.zeros(n * n)], axis=1)
+    i = (np.arange(n - 1)[None, :] + n * np.arange(n - 1)[:, None]).ravel()
+    tris = np.concatenate([np.stack([i, i + 1, i + n + 1], 1), np.stack([i, i + n + 1, i + n], 1)])
+    return co, tris
+
+
+def test_bend_is_zero_where_the_surface_moves_without_turning_and_peaks_around_a_dent():
+    co, tris = _grid()
+    np.testing.assert_allclose(dense.vertex_normals(co, tris), np.tile([0.0, 0.0, 1.0], (len(co), 1)), atol=1e-12)
+    pushed = co + [0.0, 0.0, -5.0]  # the whole panel pushed straight in: displaced 5, turned by nothing
+    assert np.all(dense.bend_deg(co, pushed, tris) < 1e-3)
+    dented = co.copy()
+    r = np.hypot(co[:, 0] - 4, co[:, 1] - 4)
+    dented[:, 2] -= np.where(r < 2, 1 + np.cos(np.pi * r / 2), 0)  # a smooth dent 2 deep at (4, 4)
+    bend = dense.bend_deg(co, dented, tris)
+    centre, flank, far = (4 * 9 + 4), (4 * 9 + 5), 0
+    assert bend[centre] < 1e-3 and bend[far] < 1e-3 and bend[flank] > 30  # the bottom faces up, its flank turns
+
+
+def test_region_seen_from_the_camera_keeps_movement_across_the_image_or_a_turned_surface():
+    deform = np.array([[5.0, 5.0, 5.0, 0.5]])
+    mask = np.ones((1, 4), bool)
+    across_px = np.array([[0.5, 4.0, 0.5, 3.0]])  # along the line of sight, across the image, along, too small
+    turn = np.array([[3.0, 0.0, 20.0, 40.0]])  # hardly turned, not turned, turned, turned but not displaced
+    assert dense.region_mask(deform, mask, 1.0).tolist() == [[True, True, True, False]]
+    shown = dense.shown(across_px, turn, 2.0, 15.0)
+    assert dense.region_mask(deform, mask, 1.0, shown).tolist() == [[False, True, True, False]]
+
+
+def test_scaled_fit_takes_out_a_change_of_size_along_the_axes_and_keeps_a_bulge():
+    rng = np.random.default_rng(1)
+    rest = rng.uniform(-1, 1, size=(400, 3))
+    angle = 0.4
+    rot = np.array([[1, 0, 0], [0, np.cos(angle), -np.sin(angle)], [0, np.sin(angle), np.cos(angle)]])
+    shorter = (rest * [1.0, 1.0, 0.9]) @ rot.T + [0.5, 0.0, -0.2]  # 10 % shorter, turned and moved: no deformation
+    a, t = dense.scaled_fit(rest, shorter)
+    np.testing.assert_allclose(rest @ a.T + t, shorter, atol=1e-9)
+    r, t = dense.rigid_fit(rest, shorter)
+    assert np.abs(rest @ r.T + t - shorter).max() > 0.05  # a rigid fit counts the shortening as displacement
+    bulged = rest.copy()
+    bulged[:, :2] *= 1 + 0.2 * np.exp(-((rest[:, 2:] - 0.8) / 0.1) ** 2)  # a ring bulged out near the top
+    a, t = dense.scaled_fit(rest, bulged)
+    left = np.linalg.norm(rest @ a.T + t - bulged, axis=1)
+    near = np.abs(rest[:, 2] - 0.8) < 0.05
+    assert left[near].mean() > 5 * left[np.abs(rest[:, 2]) < 0.3].mean()

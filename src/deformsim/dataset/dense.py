@@ -6,7 +6,8 @@ Formats (``images/KIND/ID.png``, one per :data:`deformsim.dataset.layout.DENSE_K
 - ``depth``   16-bit, camera depth along the view axis in mm, 0 where no part;
 - ``normal``  8-bit RGB, camera-space unit normal (x right, y up, z to the viewer) as round((n+1)/2*255), 0 off the part;
 - ``deform``  16-bit, displacement of the visible surface point vs its rest position in 0.01 mm (:data:`DEFORM_SCALE`);
-- ``region``  8-bit L, 255 where the part is visible and deformed by at least the threshold (mm), else 0.
+- ``region``  8-bit L, 255 where the part is visible and deformed by at least the threshold (mm), else 0; with
+  ``render.region_visible`` set, only where that shows in the image (:func:`shown`).
 """
 
 from __future__ import annotations
@@ -47,10 +48,41 @@ def mask_image(mask: np.ndarray) -> np.ndarray:
     return np.where(mask, 255, 0).astype(np.uint8)
 
 
-def region_mask(deform_mm: np.ndarray, mask: np.ndarray, threshold_mm: float) -> np.ndarray:
-    """Visible pixels deformed by at least ``threshold_mm`` (compare the stored 0.01 mm values, so reading back agrees)."""
+def region_mask(deform_mm: np.ndarray, mask: np.ndarray, threshold_mm: float,
+                shown: np.ndarray | None = None) -> np.ndarray:
+    """Visible pixels deformed by at least ``threshold_mm`` (compare the stored 0.01 mm values, so reading back agrees)
+    and, when ``shown`` is given, where it is true (:func:`shown`)."""
     stored = encode_u16(deform_mm, DEFORM_SCALE)
-    return mask & (stored >= np.rint(threshold_mm * DEFORM_SCALE))
+    region = mask & (stored >= np.rint(threshold_mm * DEFORM_SCALE))
+    return region if shown is None else region & shown
+
+
+def shown(across_px: np.ndarray, turn_deg: np.ndarray, min_across_px: float, min_turn_deg: float) -> np.ndarray:
+    """Pixels whose displacement shows in the image (``render.region_visible``): moved across it (perpendicular to
+    the line of sight) by at least ``min_across_px`` pixels, or turned by at least ``min_turn_deg``. Movement along
+    the line of sight that barely turns the surface leaves the image as it was."""
+    return (across_px >= min_across_px) | (turn_deg >= min_turn_deg)
+
+
+def vertex_normals(co: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Unit vertex normals of the triangles ``tris`` ((T, 3) vertex indices) over positions ``co`` ((N, 3)):
+    the area-weighted mean of the normals of the triangles around each vertex (zero for a vertex in none)."""
+    co = np.asarray(co, dtype=np.float64)
+    a, b, c = (co[tris[:, k]] for k in range(3))
+    face = np.cross(b - a, c - a)  # length: twice the area
+    normals = np.zeros_like(co)
+    for k in range(3):
+        np.add.at(normals, tris[:, k], face)
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+
+
+def bend_deg(rest: np.ndarray, moved: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Per vertex, the angle in degrees between its normal on ``rest`` and on ``moved`` (same triangles): how far
+    the deformation turned the surface there. Moving a patch without turning it (an end pushed straight in) gives
+    0. Place ``rest`` by :func:`rigid_fit` first, so that the part's rigid motion does not count."""
+    cos = np.sum(vertex_normals(rest, tris) * vertex_normals(moved, tris), axis=1)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).astype(np.float32)
 
 
 def rigid_fit(rest: np.ndarray, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -65,6 +97,22 @@ def rigid_fit(rest: np.ndarray, moved: np.ndarray) -> tuple[np.ndarray, np.ndarr
     d = np.sign(np.linalg.det(vt.T @ u.T))
     r = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
     return r, cb - ca @ r.T
+
+
+def scaled_fit(rest: np.ndarray, moved: np.ndarray, steps: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """A = R diag(s) and t that best map ``rest`` onto ``moved`` with a scale per axis of ``rest``'s frame: a
+    change of size along the part's own axes (what ``object.shapes`` draws for intact parts too) is left out with
+    the rigid motion. Alternates :func:`rigid_fit` with the per-axis least-squares scale."""
+    a, b = np.asarray(rest, dtype=np.float64), np.asarray(moved, dtype=np.float64)
+    centred = a - a.mean(0)
+    spread = np.maximum((centred**2).sum(0), 1e-18)
+    s = np.ones(3)
+    for _ in range(steps):
+        r, t = rigid_fit(a * s, b)
+        back = (b - t) @ r  # moved in rest's frame
+        s = (centred * (back - back.mean(0))).sum(0) / spread
+    r, t = rigid_fit(a * s, b)
+    return r * s, t
 
 
 def read_deform_mm(path: str | Path) -> np.ndarray:

@@ -23,8 +23,8 @@ CAMERAS = [(20, 70), (200, 250)]
 CRINKLE = {"crinkle_coarse": 1.0}  # broad bumps: finer crinkle peaks are narrower than a 64 px pixel
 
 
-def _config(dense_on: bool):
-    return load_config("quick", {**TINY_RENDER, "camera.azimuth_quadrants": CAMERAS, "render.dense": dense_on})
+def _config(dense_on: bool, **more):
+    return load_config("quick", {**TINY_RENDER, "camera.azimuth_quadrants": CAMERAS, "render.dense": dense_on, **more})
 
 
 def _render(root, name: str, cfg, samples) -> tuple[Layout, list[dict]]:
@@ -51,9 +51,13 @@ def runs(tmp_path_factory):
     i = dataclasses.replace(d, index=1, label="intact", families=(), keys=zero_keys)
     c = dataclasses.replace(d, index=2, keys=zero_keys, displacement={**zero_disp, **CRINKLE}, families=("crunch",))
     root = tmp_path_factory.mktemp("dense")
-    on, on_replies = _render(root, "on", cfg, [d, i, c])
+    from_above = tuple(dataclasses.replace(cam, polar=3.0) for cam in d.cameras)
+    crushed = dataclasses.replace(d, index=3, keys={**zero_keys, "crush_top": 0.5}, families=("crush",), cameras=from_above)
+    on, on_replies = _render(root, "on", cfg, [d, i, c, crushed])
     off, off_replies = _render(root, "off", _config(False), [d, i])
-    return {"on": on, "off": off, "replies": on_replies, "off_replies": off_replies, "samples": (d, i, c)}
+    visible, visible_replies = _render(root, "visible", _config(True, **{"render.region_visible": {}}), [d, crushed])
+    return {"on": on, "off": off, "visible": visible, "replies": on_replies, "off_replies": off_replies,
+            "visible_replies": visible_replies, "samples": (d, i, c)}
 
 
 def _maps(layout: Layout, index: int, cam: int) -> dict:
@@ -150,3 +154,21 @@ def test_crinkle_map_peaks_at_the_shape_key_displacement_computed_in_numpy(runs)
 def test_every_dense_kind_is_written(runs):
     for kind in DENSE_KINDS:
         assert runs["on"].image(kind, image_id(0, 0)).is_file()
+
+
+def test_the_visible_region_keeps_the_renders_and_leaves_out_what_moved_along_the_line_of_sight(runs):
+    for index in (0, 3):
+        for cam in range(len(CAMERAS)):
+            iid = image_id(index, cam)
+            assert runs["visible"].image("rgba", iid).read_bytes() == runs["on"].image("rgba", iid).read_bytes()
+            m = _maps(runs["visible"], index, cam)
+            assert not (m["region"] & ~(m["mask"] & (m["deform"] >= 1.0))).any()  # displaced, and showing it
+            row = runs["visible_replies"][index // 3]["image_columns"][cam]
+            assert row["region_fraction"] == pytest.approx(m["region"].sum() / m["mask"].sum())
+    for cam in range(len(CAMERAS)):
+        # crushed from the top, seen from above: the can got shorter (a size, not a deformation) and its lid moved
+        # along the line of sight without turning; only the bulge under the lid may show
+        everything, visible = (_maps(runs[k], 3, cam)["region"].sum() for k in ("on", "visible"))
+        assert visible < 0.5 * everything
+        # crushed and folded, seen from the side: the fold shows
+        assert _maps(runs["visible"], 0, cam)["region"].sum() > 0.3 * _maps(runs["on"], 0, cam)["region"].sum()

@@ -3,10 +3,15 @@
 The part's mesh carries a point attribute :data:`REST`: its rest shape, i.e. the Basis with the opening keys (tab,
 seal) applied at the sample's values, so openings never count as deformation, and placed by a rigid fit
 (:func:`deformsim.dataset.dense.rigid_fit`) where it matches the deformed part best, so that a bent or twisted
-part's rigid motion does not count either. Every material of the part gets an
-AOV output ``deform`` = |world(Object coords - rest)|: the displacement of the shaded point by the lattice and
-crinkle keys. After the RGBA render the render result (with the Depth, Normal and AOV passes) is saved once as
-multilayer EXR and turned into the maps of :mod:`deformsim.dataset.dense`.
+part's rigid motion does not count either. Every material of the part gets AOV outputs: ``deform`` =
+|world(Object coords - rest)|, the displacement of the shaded point by the lattice and crinkle keys, and ``across``,
+its component across the image (perpendicular to the line of sight). A second point attribute :data:`BEND` holds
+in x, per vertex, the angle its normal turned from the fitted rest shape's (:func:`deformsim.dataset.dense.bend_deg`),
+shown through the AOV ``bend``; it is a vector because a float point attribute moves Cycles' RGB render in the last
+bit. Under ``render.region_visible`` the rest shape also takes the part's size along its axes, and ``across``
+and ``bend`` shape the region map. After the RGBA render the render
+result (with the Depth, Normal and AOV passes) is saved once as multilayer EXR and turned into the maps of
+:mod:`deformsim.dataset.dense`.
 """
 
 from __future__ import annotations
@@ -20,14 +25,17 @@ import numpy as np
 import OpenEXR
 
 from deformsim.blender.feature import Feature
-from deformsim.config import Config
+from deformsim.config import Config, VisibleRegionConfig
 from deformsim.dataset import dense as maps
 from deformsim.dataset.layout import DENSE_KINDS, Layout
 from deformsim.sampling import SampleParams
 from deformsim.spec.model import Spec
 
 REST = "deformsim_rest"
+BEND = "deformsim_bend"
 AOV = "deform"
+ACROSS_AOV = "across"
+BEND_AOV = "bend"
 AOV_NODE = "DeformsimDeformAOV"
 MM = 1000.0  # scene units (metres) to mm
 _EXR = {"media_type": "MULTI_LAYER_IMAGE", "color_depth": "32", "exr_codec": "ZIP"}
@@ -52,52 +60,82 @@ def rest_positions(obj, spec: Spec, seal: float, tab: float) -> np.ndarray:
     return co
 
 
-def prepare(scene, obj, spec: Spec, p: SampleParams) -> float:
+def prepare(scene, obj, spec: Spec, p: SampleParams, sizes: bool = False) -> float:
     """Enable the passes, give every material of ``obj`` the AOV output and store sample ``p``'s rest shape;
-    return the largest displacement of any vertex of the deformed mesh from it, in mm (world scale)."""
+    return the largest displacement of any vertex of the deformed mesh from it, in mm (world scale). ``sizes``:
+    the rest shape also takes the deformed part's size along its axes (:func:`deformsim.dataset.dense.scaled_fit`)."""
     layer = scene.view_layers[0]
     layer.use_pass_z = layer.use_pass_normal = True
-    if AOV not in layer.aovs:
-        aov = layer.aovs.add()
-        aov.name, aov.type = AOV, "VALUE"
+    for name in (AOV, ACROSS_AOV, BEND_AOV):
+        if name not in layer.aovs:
+            aov = layer.aovs.add()
+            aov.name, aov.type = name, "VALUE"
     for mat in obj.data.materials:
         if mat is not None and AOV_NODE not in mat.node_tree.nodes:
             _add_aov(mat)
     mesh = obj.data
     attr = mesh.attributes.get(REST) or mesh.attributes.new(REST, "FLOAT_VECTOR", "POINT")
+    bend = mesh.attributes.get(BEND) or mesh.attributes.new(BEND, "FLOAT_VECTOR", "POINT")
     rest = rest_positions(obj, spec, p.seal, p.tab)
     attr.data.foreach_set("vector", rest.ravel())
+    bend.data.foreach_set("vector", np.zeros(rest.size, dtype=np.float32))
     mesh.update()
     evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
     moved, rest_eval = _co(evaluated.vertices), _co(evaluated.attributes[REST].data, "vector")
     if not np.any(moved != rest_eval):
         return 0.0
-    r, t = maps.rigid_fit(rest_eval, moved)  # deformed: measure from the rest shape placed where it fits best
+    fit = maps.scaled_fit if sizes else maps.rigid_fit
+    r, t = fit(rest_eval, moved)  # deformed: measure from the rest shape placed where it fits best
     fitted = (rest @ r.T + t).astype(np.float32)
     mesh.attributes[REST].data.foreach_set("vector", fitted.ravel())
+    world = np.array(obj.matrix_world)[:3, :3].T
+    placed = (rest_eval @ r.T + t).astype(np.float32)  # what the fitted attribute holds, on the evaluated mesh
+    tris = np.empty(len(evaluated.loop_triangles) * 3, dtype=np.int32)
+    evaluated.loop_triangles.foreach_get("vertices", tris)
+    turned = np.zeros_like(placed)
+    turned[:, 0] = maps.bend_deg(placed.astype(float) @ world, moved.astype(float) @ world, tris.reshape(-1, 3))
+    mesh.attributes[BEND].data.foreach_set("vector", turned.ravel())
     mesh.update()
-    residual = (moved - (rest_eval @ r.T + t).astype(np.float32)).astype(float)  # what the fitted attribute holds
-    return float(np.linalg.norm(residual @ np.array(obj.matrix_world)[:3, :3].T, axis=1).max() * MM)
+    residual = (moved - placed).astype(float)
+    return float(np.linalg.norm(residual @ world, axis=1).max() * MM)
 
 
 def _add_aov(mat) -> None:
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
+
+    def math(op: str, *inputs):
+        node = nodes.new("ShaderNodeVectorMath")
+        node.operation = op
+        for k, socket in enumerate(inputs):
+            links.new(socket, node.inputs[k])
+        return node.outputs["Value" if op in ("LENGTH", "DOT_PRODUCT") else "Vector"]
+
+    def aov(name: str, socket, node_name: str = "") -> None:
+        out = nodes.new("ShaderNodeOutputAOV")
+        out.aov_name = name
+        if node_name:
+            out.name = node_name
+        links.new(socket, out.inputs["Value"])
+
     coord = nodes.new("ShaderNodeTexCoord")
     rest = nodes.new("ShaderNodeAttribute")
     rest.attribute_type, rest.attribute_name = "GEOMETRY", REST
-    diff = nodes.new("ShaderNodeVectorMath")
-    diff.operation = "SUBTRACT"
     world = nodes.new("ShaderNodeVectorTransform")
     world.vector_type, world.convert_from, world.convert_to = "VECTOR", "OBJECT", "WORLD"
-    length = nodes.new("ShaderNodeVectorMath")
-    length.operation = "LENGTH"
-    out = nodes.new("ShaderNodeOutputAOV")
-    out.name, out.aov_name = AOV_NODE, AOV
-    links.new(coord.outputs["Object"], diff.inputs[0])
-    links.new(rest.outputs["Vector"], diff.inputs[1])
-    links.new(diff.outputs["Vector"], world.inputs["Vector"])
-    links.new(world.outputs["Vector"], length.inputs[0])
-    links.new(length.outputs["Value"], out.inputs["Value"])
+    links.new(math("SUBTRACT", coord.outputs["Object"], rest.outputs["Vector"]), world.inputs["Vector"])
+    moved = world.outputs["Vector"]
+    aov(AOV, math("LENGTH", moved), AOV_NODE)
+    view = nodes.new("ShaderNodeNewGeometry").outputs["Incoming"]  # world, unit, towards the viewer
+    along = nodes.new("ShaderNodeVectorMath")
+    along.operation = "SCALE"
+    links.new(view, along.inputs[0])
+    links.new(math("DOT_PRODUCT", moved, view), along.inputs["Scale"])
+    aov(ACROSS_AOV, math("LENGTH", math("SUBTRACT", moved, along.outputs["Vector"])))
+    bend = nodes.new("ShaderNodeAttribute")
+    bend.attribute_type, bend.attribute_name = "GEOMETRY", BEND
+    angle = nodes.new("ShaderNodeSeparateXYZ")
+    links.new(bend.outputs["Vector"], angle.inputs["Vector"])
+    aov(BEND_AOV, angle.outputs["X"])
 
 
 def _passes(scene, target: Path) -> dict[str, np.ndarray]:
@@ -119,20 +157,29 @@ def _passes(scene, target: Path) -> dict[str, np.ndarray]:
         Path(tmp).unlink(missing_ok=True)
 
 
-def write_maps(scene, camera, alpha8: np.ndarray, layout: Layout, iid: str, threshold_mm: float) -> dict:
-    """Write the five maps of image ``iid`` from the last render; return its manifest columns (bbox, disp, region)."""
+def write_maps(scene, camera, alpha8: np.ndarray, layout: Layout, iid: str, threshold_mm: float,
+               visible: VisibleRegionConfig | None = None) -> dict:
+    """Write the five maps of image ``iid`` from the last render; return its manifest columns (bbox, disp, region).
+    ``visible`` (``render.region_visible``): the region keeps only what shows in the image."""
     ch = _passes(scene, layout.image("mask", iid))
     layer = scene.view_layers[0].name
     mask = alpha8 >= 128
-    coverage = ch[f"{layer}.Combined.A"]
-    # Passes are averaged over every camera sample, misses counting 0: divide the AOV by the part's coverage.
-    deform = np.where(mask, ch[f"{layer}.{AOV}.X"] / np.maximum(coverage, 1e-6), 0.0) * MM
+    coverage = np.maximum(ch[f"{layer}.Combined.A"], 1e-6)
+    # Passes are averaged over every camera sample, misses counting 0: divide the AOVs by the part's coverage.
+    deform = np.where(mask, ch[f"{layer}.{AOV}.X"] / coverage, 0.0) * MM
     depth = _fill(np.where(mask & (ch[f"{layer}.Depth.Z"] < 1e9), ch[f"{layer}.Depth.Z"], 0.0) * MM, mask)
     normal = np.stack([ch[f"{layer}.Normal.{a}"] for a in "XYZ"], axis=-1)
     cam = np.array(camera.matrix_world)[:3, :3]
     normal = normal @ (cam / np.linalg.norm(cam, axis=0))  # world -> camera axes
     normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-9)
-    region = maps.region_mask(deform, mask, threshold_mm)
+    shown = None
+    if visible is not None:
+        # a pixel's width in mm at the surface's depth (square images: the sensor's width spans the frame)
+        px_mm = np.maximum(depth, 1e-6) * camera.data.sensor_width / (camera.data.lens * alpha8.shape[1])
+        across = np.where(mask, ch[f"{layer}.{ACROSS_AOV}.X"] / coverage, 0.0) * MM
+        turned = np.where(mask, ch[f"{layer}.{BEND_AOV}.X"] / coverage, 0.0)
+        shown = maps.shown(across / px_mm, turned, visible.across_px, visible.turn_deg)
+    region = maps.region_mask(deform, mask, threshold_mm, shown)
     maps.save_png(layout.image("mask", iid), maps.mask_image(mask))
     maps.save_png(layout.image("depth", iid), maps.encode_u16(depth, 1.0))
     maps.save_png(layout.image("normal", iid), maps.encode_normal(normal, mask))
@@ -177,12 +224,15 @@ class Dense(Feature):
 
     def apply(self, p, target) -> None:
         ctx = self.ctx
-        self.sample = {"max_disp_mm": prepare(ctx.scene, ctx.obj, ctx.spec, p), **family_flags(ctx.spec, p)}
+        disp = prepare(ctx.scene, ctx.obj, ctx.spec, p, sizes=ctx.cfg.render.region_visible is not None)
+        self.sample = {"max_disp_mm": disp, **family_flags(ctx.spec, p)}
         self.images = []
 
     def image(self, c: int, iid: str, rgba: np.ndarray, layout: Layout) -> None:
         ctx = self.ctx
-        stats = write_maps(ctx.scene, ctx.cameras[c], rgba[..., 3], layout, iid, ctx.cfg.render.region_threshold_mm)
+        render = ctx.cfg.render
+        stats = write_maps(ctx.scene, ctx.cameras[c], rgba[..., 3], layout, iid, render.region_threshold_mm,
+                           render.region_visible)
         self.images.append({**self.sample, **stats})
 
     def image_columns(self, c: int) -> dict:
