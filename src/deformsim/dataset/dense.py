@@ -80,7 +80,8 @@ def vertex_normals(co: np.ndarray, tris: np.ndarray) -> np.ndarray:
 def bend_deg(rest: np.ndarray, moved: np.ndarray, tris: np.ndarray) -> np.ndarray:
     """Per vertex, the angle in degrees between its normal on ``rest`` and on ``moved`` (same triangles): how far
     the deformation turned the surface there. Moving a patch without turning it (an end pushed straight in) gives
-    0. Place ``rest`` by :func:`rigid_fit` first, so that the part's rigid motion does not count."""
+    0. Place ``rest`` by :func:`rigid_fit` or :func:`scaled_fit` first, so that the part's rigid motion does not
+    count."""
     cos = np.sum(vertex_normals(rest, tris) * vertex_normals(moved, tris), axis=1)
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).astype(np.float32)
 

@@ -9,9 +9,8 @@ its component across the image (perpendicular to the line of sight). A second po
 in x, per vertex, the angle its normal turned from the fitted rest shape's (:func:`deformsim.dataset.dense.bend_deg`),
 shown through the AOV ``bend``; it is a vector because a float point attribute moves Cycles' RGB render in the last
 bit. Under ``render.region_visible`` the rest shape also takes the part's size along its axes, and ``across``
-and ``bend`` shape the region map. After the RGBA render the render
-result (with the Depth, Normal and AOV passes) is saved once as multilayer EXR and turned into the maps of
-:mod:`deformsim.dataset.dense`.
+and ``bend`` shape the region map. After the RGBA render the render result (with the Depth, Normal and AOV passes)
+is saved once as multilayer EXR and turned into the maps of :mod:`deformsim.dataset.dense`.
 """
 
 from __future__ import annotations
