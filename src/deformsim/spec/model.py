@@ -229,8 +229,7 @@ class Spec(StrictModel):
         names += [t.name for t in (self.displacement.textures if self.displacement else [])]
         check_unique(names, "key")
         fams = [f.name for f in self.families]
-        if len(set(fams)) != len(fams):
-            raise ValueError("duplicate family names")
+        check_unique(fams, "family")
         clash = sorted(set(fams) & set(self.scenario_names))
         if clash:
             raise ValueError(f"scenario names that are also family names: {', '.join(clash)}")
