@@ -59,10 +59,11 @@ def rest_positions(obj, spec: Spec, seal: float, tab: float) -> np.ndarray:
     return co
 
 
-def prepare(scene, obj, spec: Spec, p: SampleParams, sizes: bool = False) -> float:
+def prepare(scene, obj, spec: Spec, p: SampleParams, visible: bool = False) -> float:
     """Enable the passes, give every material of ``obj`` the AOV output and store sample ``p``'s rest shape;
-    return the largest displacement of any vertex of the deformed mesh from it, in mm (world scale). ``sizes``:
-    the rest shape also takes the deformed part's size along its axes (:func:`deformsim.dataset.dense.scaled_fit`)."""
+    return the largest displacement of any vertex of the deformed mesh from it, in mm (world scale). ``visible``:
+    the rest shape also takes the deformed part's size along its axes (:func:`deformsim.dataset.dense.scaled_fit`)
+    and :data:`BEND` gets each vertex's turn angle (``render.region_visible``; zero otherwise)."""
     layer = scene.view_layers[0]
     layer.use_pass_z = layer.use_pass_normal = True
     for name in (AOV, ACROSS_AOV, BEND_AOV):
@@ -83,17 +84,18 @@ def prepare(scene, obj, spec: Spec, p: SampleParams, sizes: bool = False) -> flo
     moved, rest_eval = _co(evaluated.vertices), _co(evaluated.attributes[REST].data, "vector")
     if not np.any(moved != rest_eval):
         return 0.0
-    fit = maps.scaled_fit if sizes else maps.rigid_fit
+    fit = maps.scaled_fit if visible else maps.rigid_fit
     r, t = fit(rest_eval, moved)  # deformed: measure from the rest shape placed where it fits best
     fitted = (rest @ r.T + t).astype(np.float32)
     mesh.attributes[REST].data.foreach_set("vector", fitted.ravel())
     world = np.array(obj.matrix_world)[:3, :3].T
     placed = (rest_eval @ r.T + t).astype(np.float32)  # what the fitted attribute holds, on the evaluated mesh
-    tris = np.empty(len(evaluated.loop_triangles) * 3, dtype=np.int32)
-    evaluated.loop_triangles.foreach_get("vertices", tris)
-    turned = np.zeros_like(placed)
-    turned[:, 0] = maps.bend_deg(placed.astype(float) @ world, moved.astype(float) @ world, tris.reshape(-1, 3))
-    mesh.attributes[BEND].data.foreach_set("vector", turned.ravel())
+    if visible:  # the turn angles' only reader is render.region_visible
+        tris = np.empty(len(evaluated.loop_triangles) * 3, dtype=np.int32)
+        evaluated.loop_triangles.foreach_get("vertices", tris)
+        turned = np.zeros_like(placed)
+        turned[:, 0] = maps.bend_deg(placed.astype(float) @ world, moved.astype(float) @ world, tris.reshape(-1, 3))
+        mesh.attributes[BEND].data.foreach_set("vector", turned.ravel())
     mesh.update()
     residual = (moved - placed).astype(float)
     return float(np.linalg.norm(residual @ world, axis=1).max() * MM)
@@ -223,7 +225,7 @@ class Dense(Feature):
 
     def apply(self, p, target) -> None:
         ctx = self.ctx
-        disp = prepare(ctx.scene, ctx.obj, ctx.spec, p, sizes=ctx.cfg.render.region_visible is not None)
+        disp = prepare(ctx.scene, ctx.obj, ctx.spec, p, visible=ctx.cfg.render.region_visible is not None)
         self.sample = {"max_disp_mm": disp, **family_flags(ctx.spec, p)}
         self.images = []
 
