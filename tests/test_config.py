@@ -35,6 +35,7 @@ def test_overrides_apply_and_none_is_ignored():
         ({"render.region_visible": {"turn_deg": 90}}, "render.region_visible.turn_deg"),
         ({"render.region_visible": {"across_px": 0}}, "render.region_visible.across_px"),
         ({"render.dense": False, "render.region_visible": {}}, "render.region_visible needs render.dense: true"),
+        ({"object.shapes": {"round": True, "scale": [[0.9, 1.2], [1, 1], [1, 1]]}}, "object.shapes.round takes y's"),
     ],
 )
 def test_bad_values_are_named(overrides, needle):

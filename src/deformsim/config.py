@@ -69,6 +69,10 @@ class ShapesConfig(_Model):
         ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0)), description="factors on the part's x, y and z extent, each drawn per "
         "sample (x and y about the part's vertical axis, z from the ground up)"
     )
+    round: Annotated[bool, identity.WHEN_SET] = Field(
+        False, description="y takes x's drawn scale factor, so a round part stays round (a tin of another "
+        "diameter, not an oval one); scale's y range must then equal x's"
+    )
     taper: Annotated[Range, Within(-0.9, 0.9)] = Field(
         (0.0, 0.0), description="widening towards the top, drawn per sample: x and y scale by 1 + taper * (2 h - 1) "
         "at height share h (negative: a narrower top)"
@@ -77,6 +81,13 @@ class ShapesConfig(_Model):
         (0.0, 0.0), description="barrel, drawn per sample: x and y scale by 1 + bulge * sin(pi h) at height share h "
         "(negative: a waist)"
     )
+
+    @model_validator(mode="after")
+    def _round(self) -> "ShapesConfig":
+        if self.round and self.scale[1] != self.scale[0]:
+            raise ValueError(f"object.shapes.round takes y's scale from x's, but their ranges differ "
+                             f"({list(self.scale[0])} and {list(self.scale[1])}): give y the same range")
+        return self
 
 
 class ObjectConfig(_Model):

@@ -67,6 +67,17 @@ def test_named_sizes_and_continuous_blends(spec):
     assert min(s.neck for s in shapes) < 0.9 and max(s.neck for s in shapes) > 1.0
 
 
+def test_round_parts_take_one_factor_across(spec):
+    scale = [[0.8, 1.3], [0.8, 1.3], [0.7, 1.1]]
+    free = load_config("quick", {"object.shapes": {"scale": scale}})
+    round_ = load_config("quick", {"object.shapes": {"scale": scale, "round": True}})
+    pairs = [(sample_params(i, 3, free, spec, HDRIS).shape, sample_params(i, 3, round_, spec, HDRIS).shape)
+             for i in range(20)]
+    assert all(r.scale[0] == r.scale[1] for _, r in pairs), "a round part stays round"
+    assert any(f.scale[0] != f.scale[1] for f, _ in pairs)
+    assert all((f.scale[0], f.scale[2]) == (r.scale[0], r.scale[2]) for f, r in pairs), "no other draw moves"
+
+
 def test_manifest_records_the_drawn_shape_and_appearance(spec, tmp_path):
     cfg = load_config("quick", ON)
     p = sample_params(3, 2, cfg, spec, HDRIS)

@@ -154,6 +154,7 @@ def draw_shape(index: int, seed: int, cfg: Config, spec: Spec) -> ShapeParams | 
     blend, t = bool(rng.uniform() < s.continuous), float(rng.uniform())
     neck, dome = float(rng.uniform(*s.neck)), float(rng.uniform(*s.dome))
     scale = tuple(float(rng.uniform(*r)) for r in s.scale)
+    scale = (scale[0], scale[0], scale[2]) if s.round else scale
     taper, bulge = float(rng.uniform(*s.taper)), float(rng.uniform(*s.bulge))
     if spec.builtin != "can":
         return ShapeParams(size="", diameter=0.0, height=0.0, rim=1.0, neck=1.0, dome=1.0, scale=scale, taper=taper,
