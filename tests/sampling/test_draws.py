@@ -189,3 +189,31 @@ def test_a_blended_colour_range_stays_on_its_line_and_moves_nothing_else():
         assert dataclasses.replace(b, material=a.material) == a and b.material.roughness == a.material.roughness
         tints.append(np.ptp(a.material.color[:2]))
     assert max(tints) > 0.05, "drawn channel by channel, a range of greys gives tints"
+
+
+def test_printed_marks_draw_from_their_own_stream_by_share_ink_and_style():
+    from deformsim.spec.model import Spec
+
+    spec = {"name": "tin", "families": [{"name": "f", "keys": [{"name": "k", "ops": [{"op": "compress", "amount": 0.1}]}]}],
+            "material": {"regions": [{"name": "ends", "where": {"min_normal_angle": 60}}]}}
+    plain = Spec.model_validate(spec)
+    spec["material"]["regions"][0]["print"] = {"share": 0.5, "styles": ["ring", "dots"],
+                                               "inks": [[[0, 0.3, 0], [0.1, 0.5, 0.1]], [[0.5, 0, 0], [0.6, 0, 0]]]}
+    printed = Spec.model_validate(spec)
+    cfg = load_config("quick")
+    marks = []
+    for i in range(40):
+        a, b = sample_params(i, 2, cfg, plain, HDRIS), sample_params(i, 2, cfg, printed, HDRIS)
+        assert "print" not in a.material.regions[0].to_dict(), "records of unprinted specs stay as they were"
+        (ends,) = b.material.regions
+        assert b.material.print is None and dataclasses.replace(ends, print=None) == a.material.regions[0]
+        assert dataclasses.replace(b, material=a.material) == a, "printing moves no other draw"
+        assert type(b).from_dict(b.to_dict()) == b and b == sample_params(i, 2, cfg, printed, HDRIS)
+        marks.append(ends.print)
+    shown = [m for m in marks if m is not None]
+    assert 10 <= len(shown) <= 30, "about half the samples printed (share 0.5)"
+    assert {m.style for m in shown} == {"ring", "dots"} and len({m.seed for m in shown}) == len(shown)
+    greens = [m.ink for m in shown if m.ink[1] > 0]
+    assert 0 < len(greens) < len(shown), "each printed sample draws one of the ink ranges"
+    assert all(0 <= r <= 0.1 and 0.3 <= g <= 0.5 and 0 <= bl <= 0.1 for r, g, bl in greens)
+    assert all(0.5 <= m.ink[0] <= 0.6 for m in shown if m.ink[1] == 0)

@@ -139,3 +139,27 @@ def test_material_regions_are_validated_in_one_line(tmp_path):
         with pytest.raises(UserError) as err:
             load_spec(path)
         assert needle in str(err.value) and "\n" not in str(err.value), str(err.value)
+
+
+def test_printed_marks_are_validated_in_one_line_and_leave_unprinted_specs_as_they_were(tmp_path):
+    path = tmp_path / "spec.yaml"
+    path.write_text(SPEC.replace("units: mm", "units: mm\nmaterial: {kind: metal}"))
+    assert "print" not in load_spec(path).model_dump(mode="json")["material"], "an unprinted spec's identity stays"
+    printed = "{share: 0.5, inks: [[[0, 0.2, 0], [0.1, 0.5, 0.2]]], styles: [ring]}"
+    region = f"{{name: ends, where: {{min_normal_angle: 60}}, print: {printed}}}"
+    path.write_text(SPEC.replace("units: mm", f"units: mm\nmaterial: {{print: {{}}, regions: [{region}]}}"))
+    spec = load_spec(path)
+    assert spec.material.print.styles == ["ring", "lines", "dots"] and spec.material.print.share == 1.0
+    assert spec.material.regions[0].print.inks == [((0, 0.2, 0), (0.1, 0.5, 0.2))]
+    proc = cli("spec", "check", str(path))
+    shown = " ".join(proc.stdout.split())
+    assert proc.returncode == 0 and "printed material, material regions ends (printed)" in shown, shown
+    for bad, needle in (("{share: 1.5}", "share: Input should be less than or equal to 1"),
+                        ("{inks: []}", "inks: List should have at least 1 item"),
+                        ("{inks: [[[0, 0, 0], [1.2, 0, 0]]]}", "colour range [[0.0, 0.0, 0.0], [1.2, 0.0, 0.0]]"),
+                        ("{styles: [stamp]}", "material.print.styles[0]: Input should be 'ring', 'lines' or 'dots'"),
+                        ("{ink: [0, 0, 0]}", "material.print.ink")):
+        path.write_text(SPEC.replace("units: mm", f"units: mm\nmaterial: {{print: {bad}}}"))
+        with pytest.raises(UserError) as err:
+            load_spec(path)
+        assert needle in str(err.value) and "\n" not in str(err.value), str(err.value)

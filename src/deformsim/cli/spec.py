@@ -28,8 +28,10 @@ def register(app: typer.Typer) -> None:
         spec, mesh = checked.spec, ""
         if checked.size is not None:
             mesh = f"; mesh {object_.name}: {' x '.join(f'{v * 1000:.0f}' for v in checked.size)} mm"
-        regions = [r.name for r in spec.material.regions] if spec.material else []
-        regions_shown = f", material regions {', '.join(regions)}" if regions else ""
+        finishes = [spec.material, *spec.material.regions] if spec.material else []
+        regions = [r.name + (" (printed)" if r.print else "") for r in finishes[1:]]
+        regions_shown = (", printed material" if finishes and finishes[0].print else "") + (
+            f", material regions {', '.join(regions)}" if regions else "")
         console.print("[green]ok[/] " + escape(
             f"{file}: '{spec.name}', {len(spec.families)} families, {len(spec.key_names)} keys, "
             f"{len(spec.texture_names)} displacement textures{regions_shown}, "

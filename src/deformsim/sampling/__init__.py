@@ -13,6 +13,7 @@ from deformsim.sampling.draws import (
     draw_drop,
     draw_framing,
     draw_lights,
+    draw_prints,
     draw_shape,
     draw_source,
     draw_surface,
@@ -23,6 +24,7 @@ from deformsim.sampling.params import (
     CanDesign,
     LightParams,
     MaterialParams,
+    PrintParams,
     SampleParams,
     ShapeParams,
     SurfaceParams,
@@ -33,7 +35,7 @@ from deformsim.sampling.tables import BRAND_WORDS, CAN_SIZES, CUT_SIDES, LIGHT_K
 
 __all__ = [
     "BRAND_WORDS", "CAN_SIZES", "CUT_SIDES", "LIGHT_KINDS", "SURFACE_COLOURS", "AppearanceParams", "CameraParams",
-    "CanDesign", "LightParams", "MaterialParams", "SampleParams", "ShapeParams", "SurfaceParams", "allowed_families",
-    "artwork_photos", "draw_appearance", "draw_drop", "draw_framing", "draw_lights", "draw_shape", "draw_source",
-    "draw_surface", "label_for", "sample_params", "surface_photos",
+    "CanDesign", "LightParams", "MaterialParams", "PrintParams", "SampleParams", "ShapeParams", "SurfaceParams",
+    "allowed_families", "artwork_photos", "draw_appearance", "draw_drop", "draw_framing", "draw_lights", "draw_prints",
+    "draw_shape", "draw_source", "draw_surface", "label_for", "sample_params", "surface_photos",
 ]

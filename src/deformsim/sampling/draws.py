@@ -13,13 +13,14 @@ from deformsim.sampling.params import (
     CameraParams,
     LightParams,
     MaterialParams,
+    PrintParams,
     ShapeParams,
     SurfaceParams,
 )
 from deformsim.sampling.photos import artwork_photos, surface_photos
 from deformsim.sampling.streams import stream
 from deformsim.sampling.tables import CAN_SIZES, CUT_SIDES, LIGHT_KINDS, SURFACE_COLOURS
-from deformsim.spec.model import Finish, Spec
+from deformsim.spec.model import Finish, Material, Print, Spec
 
 
 def draw_source(index: int, seed: int, cfg: Config, spec: Spec) -> tuple[str, str, float]:
@@ -46,6 +47,28 @@ def draw_finish(rng: np.random.Generator, finish: Finish) -> MaterialParams:
     else:
         color = tuple(float(rng.uniform(a, b)) for a, b in zip(lo, hi))
     return MaterialParams(color=color, roughness=float(rng.uniform(*finish.roughness)))
+
+
+def draw_prints(index: int, seed: int, material: Material, params: MaterialParams) -> MaterialParams:
+    """``params`` with the printed marks of the spec material and each region that has ``print`` (in that order, from
+    stream "print"); a spec without ``print`` draws nothing here."""
+    finishes = [material, *material.regions]
+    if all(f.print is None for f in finishes):
+        return params
+    rng = stream("print", seed, index)
+    marks = [_draw_print(rng, f.print) if f.print is not None else None for f in finishes]
+    regions = tuple(replace(r, print=m) for r, m in zip(params.regions, marks[1:]))
+    return replace(params, print=marks[0], regions=regions)
+
+
+def _draw_print(rng: np.random.Generator, spec: Print) -> PrintParams | None:
+    """Printed or not (by ``share``), then an ink range, its colour, a style and a layout seed: all drawn either way."""
+    printed = rng.uniform() < spec.share
+    lo, hi = spec.inks[int(rng.integers(len(spec.inks)))]
+    ink = tuple(float(rng.uniform(a, b)) for a, b in zip(lo, hi))
+    style = spec.styles[int(rng.integers(len(spec.styles)))]
+    layout = int(rng.integers(2**31))
+    return PrintParams(ink=ink, style=style, seed=layout) if printed else None
 
 
 def draw_drop(index: int, seed: int, upright: float) -> tuple[float, float, float, float]:

@@ -44,12 +44,23 @@ class CanDesign(Record):
 
 
 @dataclass(frozen=True)
+class PrintParams(Record):
+    """A finish's printed marks (spec ``print``): the ink, the style and the seed of the marks' layout and words."""
+
+    ink: tuple[float, float, float]
+    style: str  # "ring" | "lines" | "dots"
+    seed: int
+
+
+@dataclass(frozen=True)
 class MaterialParams(Record):
-    """A user mesh's surface colour and roughness, then each of the spec's material regions' (in its order)."""
+    """A user mesh's surface colour and roughness, then each of the spec's material regions' (in its order); the
+    printed marks of a finish with ``print`` (None: bare this sample)."""
 
     color: tuple[float, float, float]
     roughness: float
     regions: tuple[MaterialParams, ...] = optional(())
+    print: PrintParams | None = optional(None)
 
 
 @dataclass(frozen=True)

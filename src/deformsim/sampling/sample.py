@@ -14,6 +14,7 @@ from deformsim.sampling.draws import (
     draw_finish,
     draw_framing,
     draw_lights,
+    draw_prints,
     draw_shape,
     draw_source,
     draw_surface,
@@ -120,6 +121,7 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
         if spec.material.regions:
             regions = stream("regions", seed, index)
             material = replace(material, regions=tuple(draw_finish(regions, r) for r in spec.material.regions))
+        material = draw_prints(index, seed, spec.material, material)
 
     pose_tilt = float(rng.uniform(*cfg.pose.tilt))
     pose_axis = float(rng.uniform(0, 360))

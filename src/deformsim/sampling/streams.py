@@ -30,6 +30,7 @@ STREAMS: dict[str, Stream] = {
     "shape": Stream(("index",), (6,), "the part's shape: can size, scale, taper and bulge (object.shapes)"),
     "appearance": Stream(("index",), (7,), "the printed artwork, photo, gloss and ink roughness (render.appearance)"),
     "regions": Stream(("index",), (8,), "the colour and roughness of each material region (spec material.regions)"),
+    "print": Stream(("index",), (9,), "the printed marks of each finish with print (spec material and regions)"),
     "image": Stream(("image",), (), "an image's composite: background, framing and camera effects"),
     "flip": Stream(("image",), (0xF11F,), "whether the composite mirrors the part (composite.flip_part)"),
     "shadow": Stream(("image",), (0x5AAD,), "how strongly the shadow darkens the background (composite.shadow_strength)"),

@@ -135,11 +135,40 @@ class Openings(StrictModel):
         return self
 
 
+ColorRange = tuple[tuple[float, float, float], tuple[float, float, float]]
+
+
+def _check_color(v: ColorRange) -> ColorRange:
+    for lo, hi in zip(*v):
+        if not 0 <= lo <= hi <= 1:
+            raise ValueError(f"colour range {[list(c) for c in v]} must satisfy 0 <= min <= max <= 1")
+    return v
+
+
+class Print(StrictModel):
+    """Printed marks on a finish, drawn per sample: ink laid on the surface, projected from each side of the part's
+    box (on the ends of an upright part: seen from above)."""
+
+    share: float = Field(1.0, ge=0, le=1, description="share of samples printed (the others bare)")
+    inks: list[ColorRange] = Field(
+        [((0.02, 0.02, 0.02), (0.25, 0.25, 0.25))], min_length=1,
+        description="ink colour ranges: a printed sample draws one, then each channel in its range")
+    styles: list[Literal["ring", "lines", "dots"]] = Field(
+        ["ring", "lines", "dots"], min_length=1,
+        description="what a printed sample draws one of: ring (words around the centre), lines (a few lines of text), "
+        "dots (an ink-jet dot-matrix code)")
+
+    @field_validator("inks")
+    @classmethod
+    def _inks(cls, v: list[ColorRange]) -> list[ColorRange]:
+        return [_check_color(c) for c in v]
+
+
 class Finish(StrictModel):
-    """A randomised surface: kind, colour and roughness ranges drawn per sample, anisotropy."""
+    """A randomised surface: kind, colour and roughness ranges drawn per sample, anisotropy, printed marks."""
 
     kind: Literal["metal", "plastic", "painted"] = "metal"
-    color: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.6, 0.6, 0.62), (0.9, 0.9, 0.92))
+    color: ColorRange = ((0.6, 0.6, 0.62), (0.9, 0.9, 0.92))
     color_draw: Literal["channels", "blend"] = Field(
         "channels", description="channels: each colour channel drawn in its own range (any colour of the box); blend: "
         "one mix from the first colour to the second (a range of greys stays grey)"
@@ -152,14 +181,13 @@ class Finish(StrictModel):
     anisotropic_rotation: float = Field(
         0.0, ge=0, le=1, description="brushing direction in turns from around the up axis (0.25: along it)"
     )
+    print: Print | None = Field(None, exclude_if=lambda v: v is None,
+                                description="printed marks (text, codes) in a drawn ink; none when not given")
 
     @field_validator("color")
     @classmethod
-    def _color(cls, v):
-        for lo, hi in zip(*v):
-            if not 0 <= lo <= hi <= 1:
-                raise ValueError(f"colour range {[list(c) for c in v]} must satisfy 0 <= min <= max <= 1")
-        return v
+    def _color(cls, v: ColorRange) -> ColorRange:
+        return _check_color(v)
 
     @field_validator("roughness")
     @classmethod

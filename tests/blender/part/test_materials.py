@@ -186,3 +186,49 @@ def test_a_material_region_gets_its_faces_and_its_own_finish():
     assert out["top"][0] == pytest.approx([0.2, 0.3, 0.4, 1.0]) and out["top"][1:] == pytest.approx([0.55, 0.0])
     assert out["wall_rough"] == pytest.approx(0.2)
     assert out["error"] == "spec 'tin': material region 'top' selects no face of the mesh"
+
+
+PRINT = """
+import json, tempfile, bpy, numpy as np
+from pathlib import Path
+from deformsim.blender.cycles import render_to_array
+from deformsim.blender.part import materials
+from deformsim.sampling import MaterialParams, PrintParams
+from deformsim.spec.model import Spec
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.mesh.primitive_cylinder_add(vertices=48, radius=0.5, depth=1.0)
+tin = bpy.context.active_object
+s = Spec.model_validate({"name": "tin", "families": [{"name": "f", "keys": [{"name": "k", "ops": [
+    {"op": "squeeze", "axis": "x", "amount": 0.1}]}]}], "material": {"kind": "metal", "regions": [
+    {"name": "top", "kind": "plastic", "color": [[0.8, 0.8, 0.8], [0.8, 0.8, 0.8]], "roughness": [0.6, 0.6],
+     "where": {"min_normal_angle": 60}, "print": {}}]}})
+materials.assign_regions(tin, s)
+scene = bpy.context.scene
+scene.render.engine, scene.cycles.samples, scene.render.film_transparent = "CYCLES", 4, True
+scene.render.resolution_x = scene.render.resolution_y = 192
+scene.world = bpy.data.worlds.new("W")
+scene.world.use_nodes = True
+scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (1, 1, 1, 1)
+cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+scene.collection.objects.link(cam)
+cam.data.type, cam.data.ortho_scale, cam.location, scene.camera = "ORTHO", 1.1, (0, 0, 3), cam
+tmp, out = Path(tempfile.mkdtemp()), {}
+for name, mark in (("bare", None), ("ring", PrintParams((0.6, 0.0, 0.0), "ring", 3)), ("bare_again", None),
+                   ("dots", PrintParams((0.0, 0.0, 0.0), "dots", 3))):
+    top = MaterialParams((0.8, 0.8, 0.8), 0.6, print=mark)
+    materials.apply_material(tin, s.material, MaterialParams((0.8, 0.8, 0.8), 0.2, regions=(top,)))
+    px = render_to_array(scene, tmp / f"{name}.png")[0].astype(float)
+    rgb = px[..., :3][px[..., 3] == 255]
+    lum = rgb.mean(1)
+    out[name] = {"dark": float((lum < np.median(lum) - 12).mean()), "red": float((rgb[:, 0] > rgb[:, 1] + 12).mean())}
+out["images"] = sorted(i.name for i in bpy.data.images if i.name.startswith(materials.PRINT_IMAGE))
+print(json.dumps(out))
+"""
+
+
+def test_a_printed_region_shows_its_drawn_marks_in_its_ink_and_a_bare_sample_none():
+    out = run_blender(PRINT)
+    assert out["bare"]["dark"] < 0.002 and out["bare_again"]["dark"] < 0.002, "no marks, and none left over"
+    assert out["ring"]["red"] > 0.004 and out["bare"]["red"] == 0, "the ring in its red ink"
+    assert out["dots"]["dark"] > 0.008 and out["dots"]["red"] == 0, "the code in black"
+    assert out["images"] == ["Print:ObjectMaterial:top"], "one mask image, for the printed region only"

@@ -4,7 +4,8 @@ Everything is created once and updated in place on later calls, so memory stays 
 of samples: one label image ("LabelImage") whose pixels are overwritten, one material per role. With
 ``render.appearance`` (:func:`enable_appearance`) the label also gets a finish image ("LabelFinish": where the
 metal shows) driving its metallic and roughness, and a user mesh's material a box-projected texture photo
-("ObjectTexture"), each overwritten per sample too.
+("ObjectTexture"), each overwritten per sample too. A finish with ``print`` gets an ink mask ("Print:" + its
+material's name), box-projected from the generated coordinates and overwritten per sample.
 """
 
 from __future__ import annotations
@@ -14,8 +15,9 @@ import numpy as np
 
 from deformsim.blender.part.can_label import make_label
 from deformsim.blender.part.label_art import _photo_pixels, make_artwork
+from deformsim.blender.part.print_art import make_print
 from deformsim.blender.part.selection import selected
-from deformsim.sampling import AppearanceParams, CanDesign, MaterialParams
+from deformsim.sampling import AppearanceParams, CanDesign, MaterialParams, PrintParams
 from deformsim.spec.model import Finish, Material, Spec
 
 LABEL_IMAGE = "LabelImage"
@@ -38,6 +40,8 @@ FINISH_IMAGE = "LabelFinish"  # render.appearance: 1 where the label shows metal
 TEXTURE_IMAGE = "ObjectTexture"  # render.appearance: a user mesh's texture photo
 INK_METALLIC, METAL_ROUGHNESS = 0.2, 0.22  # printed basecoat and ink; bare or metallic-inked aluminium
 TEXTURE_SIZE = 512
+PRINT_IMAGE = "Print:"  # + material name: a finish's ink mask (spec print)
+PRINT_INK = {"Metallic": 0.0, "Roughness": 0.35}  # printed ink: a satin dielectric layer over the finish
 _appearance = False  # set by enable_appearance: OBJECT_MATERIAL gets the texture photo when it is created
 _part_size = 1.0  # metres: the user mesh's largest dimension (the texture's projection scale)
 _faces: np.ndarray | None = None  # set by assign_regions: each face's material slot (None: all the spec material's)
@@ -91,8 +95,8 @@ def _map_range(nodes, value, lo: float, hi: float) -> bpy.types.NodeSocket:
     return ramp.outputs["Result"]
 
 
-def _mix_into(bsdf: bpy.types.Node, name: str, factor, target, blend: str = "MIX") -> None:
-    """Put a Mix (A = what fed input ``name`` so far, B = ``target``, by ``factor``) in front of that input."""
+def _mix_into(bsdf: bpy.types.Node, name: str, factor, target, blend: str = "MIX") -> bpy.types.Node:
+    """Put a Mix (A = what fed input ``name`` so far, B = ``target``, by ``factor``) in front of that input; return it."""
     tree = bsdf.id_data
     sock = bsdf.inputs[name]
     color = sock.type == "RGBA"
@@ -108,6 +112,7 @@ def _mix_into(bsdf: bpy.types.Node, name: str, factor, target, blend: str = "MIX
         a.default_value = sock.default_value
         mix.name = CREASE_IN + name
     tree.links.new(_socket(mix.outputs, f"Result_{kind}"), sock)
+    return mix
 
 
 def add_creases(mat: bpy.types.Material, ridges: bool = True) -> None:
@@ -292,21 +297,50 @@ def assign_regions(obj: bpy.types.Object, spec: Spec) -> None:
 
 
 def _finish(name: str, finish: Finish, params: MaterialParams, texture: bool = False) -> bpy.types.Material:
-    """The material ``name`` (created on first use with its bump, ``texture`` nodes and the crease layer when on) set to
-    ``finish.kind`` with ``params`` colour and roughness and the finish's anisotropy."""
+    """The material ``name`` (created on first use with its bump, ``texture`` nodes, print nodes and the crease layer
+    when on) set to ``finish.kind`` with ``params`` colour, roughness and printed marks and the finish's anisotropy."""
     mat, new = _material(name)
     bsdf = _bsdf(mat)
     if new:
         _bump(mat, bsdf, 1200.0, 0.02)
         if texture:
             _texture_nodes(mat, bsdf)
+        if finish.print is not None:
+            _print_nodes(mat, bsdf)
     if _creases:
         add_creases(mat)
     _set(bsdf, {**_KINDS[finish.kind], "Base Color": (*params.color, 1.0), "Roughness": params.roughness,
                 "Coat Roughness": 0.1, "Anisotropic Rotation": finish.anisotropic_rotation})
     if finish.anisotropic is not None:  # Cycles' default tangent runs around the object's up axis
         _set(bsdf, {"Anisotropic": finish.anisotropic})
+    if finish.print is not None:
+        _set_print(mat, params.print)
     return mat
+
+
+def _print_nodes(mat: bpy.types.Material, bsdf: bpy.types.Node) -> None:
+    """The ink mask, box-projected from the generated coordinates (each side of the part's box spans the image), mixing
+    the base colour to the ink's and metallic and roughness to :data:`PRINT_INK`'s."""
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    coord = nodes.new("ShaderNodeTexCoord")
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.name = PRINT_IMAGE
+    tex.image = label_image(TEXTURE_SIZE, TEXTURE_SIZE, PRINT_IMAGE + mat.name)
+    tex.image.colorspace_settings.name = "Non-Color"
+    tex.projection, tex.projection_blend, tex.extension = "BOX", 0.1, "CLIP"
+    links.new(coord.outputs["Generated"], tex.inputs["Vector"])
+    _mix_into(bsdf, "Base Color", tex.outputs["Color"], (0.0, 0.0, 0.0, 1.0)).label = PRINT_IMAGE + "Base Color"
+    for name, value in PRINT_INK.items():
+        _mix_into(bsdf, name, tex.outputs["Color"], value)
+
+
+def _set_print(mat: bpy.types.Material, p: PrintParams | None) -> None:
+    """This sample's marks in the ink mask and its ink colour, or an empty mask (bare this sample)."""
+    mask = make_print(p, TEXTURE_SIZE) if p is not None else np.zeros((TEXTURE_SIZE, TEXTURE_SIZE), np.float32)
+    _write(mat.node_tree.nodes[PRINT_IMAGE].image, np.dstack([mask, mask, mask, np.ones_like(mask)]))
+    if p is not None:
+        ink = next(n for n in mat.node_tree.nodes if n.label == PRINT_IMAGE + "Base Color")
+        _socket(ink.inputs, "B_Color").default_value = (*p.ink, 1.0)
 
 
 def apply_material(obj: bpy.types.Object, spec_material: Material, params: MaterialParams,
