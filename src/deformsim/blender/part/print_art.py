@@ -30,8 +30,8 @@ def _font(px: float) -> ImageFont.ImageFont:
     return ImageFont.load_default(size=max(4, int(px)))
 
 
-def _phrase(rng: np.random.Generator, n: int) -> str:
-    return "  ".join(_WORDS[int(i)] for i in rng.integers(len(_WORDS), size=n)).upper()
+def _phrase(rng: np.random.Generator) -> str:
+    return _WORDS[int(rng.integers(len(_WORDS), size=1)[0])].upper()
 
 
 def _code(rng: np.random.Generator) -> str:
@@ -50,7 +50,7 @@ def _ring(rng: np.random.Generator, size: int) -> Image.Image:
     font = _font(band * 0.8)
     x = 0.0
     while x < circumference * 0.9:
-        text = _phrase(rng, 1) + "  *  "
+        text = _phrase(rng) + "  *  "
         draw.text((x, band * 0.1), text, font=font, fill=255)
         x += draw.textlength(text, font=font)
     s = np.asarray(strip, np.float32)
@@ -70,7 +70,7 @@ def _lines(rng: np.random.Generator, size: int) -> Image.Image:
     img = Image.new("L", (size, size), 0)
     draw = ImageDraw.Draw(img)
     n = int(rng.integers(2, 5))
-    texts = [_phrase(rng, 1) for _ in range(n - 1)] + [_code(rng)]
+    texts = [_phrase(rng) for _ in range(n - 1)] + [_code(rng)]
     px = rng.uniform(0.035, 0.06) * size
     px *= min(1.0, SPAN * size / max(draw.textlength(t, font=_font(px)) for t in texts))
     font = _font(px)
