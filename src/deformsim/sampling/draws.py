@@ -45,8 +45,13 @@ def draw_finish(rng: np.random.Generator, finish: Finish) -> MaterialParams:
         t = float(rng.uniform(size=3)[0])
         color = tuple(float(a + t * (b - a)) for a, b in zip(lo, hi))
     else:
-        color = tuple(float(rng.uniform(a, b)) for a, b in zip(lo, hi))
+        color = _channels(rng, lo, hi)
     return MaterialParams(color=color, roughness=float(rng.uniform(*finish.roughness)))
+
+
+def _channels(rng: np.random.Generator, lo, hi) -> tuple[float, ...]:
+    """A colour with each channel drawn in its own range, from ``lo`` to ``hi``."""
+    return tuple(float(rng.uniform(a, b)) for a, b in zip(lo, hi))
 
 
 def draw_prints(index: int, seed: int, material: Material, params: MaterialParams) -> MaterialParams:
@@ -64,8 +69,7 @@ def draw_prints(index: int, seed: int, material: Material, params: MaterialParam
 def _draw_print(rng: np.random.Generator, spec: Print) -> PrintParams | None:
     """Printed or not (by ``share``), then an ink range, its colour, a style and a layout seed: all drawn either way."""
     printed = rng.uniform() < spec.share
-    lo, hi = spec.inks[int(rng.integers(len(spec.inks)))]
-    ink = tuple(float(rng.uniform(a, b)) for a, b in zip(lo, hi))
+    ink = _channels(rng, *spec.inks[int(rng.integers(len(spec.inks)))])
     style = spec.styles[int(rng.integers(len(spec.styles)))]
     layout = int(rng.integers(2**31))
     return PrintParams(ink=ink, style=style, seed=layout) if printed else None
