@@ -121,6 +121,14 @@ def test_a_materials_anisotropy_is_optional_and_bounded():
             Material(**bad)
 
 
+def assert_refused(path, material: str, needle: str) -> None:
+    """SPEC with the ``material:`` line ``material`` is refused by load_spec in one line that says ``needle``."""
+    path.write_text(SPEC.replace("units: mm", f"units: mm\n{material}"))
+    with pytest.raises(UserError) as err:
+        load_spec(path)
+    assert needle in str(err.value) and "\n" not in str(err.value), str(err.value)
+
+
 def test_material_regions_are_validated_in_one_line(tmp_path):
     region = "{name: ends, where: {min_normal_angle: 60}, roughness: [0.3, 0.5]}"
     path = tmp_path / "spec.yaml"
@@ -135,10 +143,7 @@ def test_material_regions_are_validated_in_one_line(tmp_path):
                          "min_normal_angle 60.0 must be below max_normal_angle 30.0"),
                         ("[{name: e, where: {min_normal_angle: 95}}]", "min_normal_angle: Input should be less than 90"),
                         ("[{name: e, where: {group: g}, roughness: [0.5, 0.2]}]", "roughness")):
-        path.write_text(SPEC.replace("units: mm", f"units: mm\nmaterial: {{regions: {bad}}}"))
-        with pytest.raises(UserError) as err:
-            load_spec(path)
-        assert needle in str(err.value) and "\n" not in str(err.value), str(err.value)
+        assert_refused(path, f"material: {{regions: {bad}}}", needle)
 
 
 def test_printed_marks_are_validated_in_one_line_and_leave_unprinted_specs_as_they_were(tmp_path):
@@ -159,7 +164,4 @@ def test_printed_marks_are_validated_in_one_line_and_leave_unprinted_specs_as_th
                         ("{inks: [[[0, 0, 0], [1.2, 0, 0]]]}", "colour range [[0.0, 0.0, 0.0], [1.2, 0.0, 0.0]]"),
                         ("{styles: [stamp]}", "material.print.styles[0]: Input should be 'ring', 'lines' or 'dots'"),
                         ("{ink: [0, 0, 0]}", "material.print.ink")):
-        path.write_text(SPEC.replace("units: mm", f"units: mm\nmaterial: {{print: {bad}}}"))
-        with pytest.raises(UserError) as err:
-            load_spec(path)
-        assert needle in str(err.value) and "\n" not in str(err.value), str(err.value)
+        assert_refused(path, f"material: {{print: {bad}}}", needle)
