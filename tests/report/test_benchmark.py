@@ -1,6 +1,7 @@
 """The benchmark page, from a hand-made results dict shaped like run_benchmark's results.json (no training here)."""
 
 import re
+from pathlib import Path
 
 import pytest
 
@@ -44,10 +45,12 @@ def test_benchmark_report_shows_mean_and_std_of_every_variant(results, tmp_path)
     assert "85.0%" in html  # the hero: the best mean real accuracy
     # the hostile name is shown, escaped, and never as markup
     assert "<script" not in html and r"&lt;script&gt;alert(&#x27;$\x$&#x27;)&lt;/script&gt;" in html
-    # self-contained: bar chart and reliability diagrams inlined
+    # self-contained: bar chart and reliability diagrams inlined; links only to the photos' full-size files
     assert html.count("data:image/png;base64,") == 2
-    refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)""", html)
-    assert refs and all(r.startswith("data:") for r in refs)
+    srcs = re.findall(r"""src\s*=\s*["']?([^"'\s>]+)""", html)
+    assert srcs and all(r.startswith("data:") for r in srcs)
+    hrefs = set(re.findall(r"""href\s*=\s*["']?([^"'\s>]+)""", html))
+    assert hrefs <= {Path(p).resolve().as_uri() for p in results["real_paths"]}
 
 
 def test_benchmark_report_without_real_labels_skips_the_reliability_diagram(results, tmp_path):
@@ -88,3 +91,17 @@ def test_benchmark_report_warns_when_the_synthetic_accuracy_is_low(results, tmp_
     html = write_benchmark_report(results, tmp_path / "b").read_text()
     banner = html[html.index("class=warn"):html.index('class="hero"')]
     assert "variant black: mean held-out synthetic accuracy 0.60 is below 0.75" in banner and banner.count("warn") == 1
+
+
+def test_benchmark_report_lists_the_photos_most_often_wrong_first(results, tmp_path):
+    results["settings"]["train"]["threshold"] = 0.5
+    results["runs"][1]["real_predictions"] = [0.2, 0.7, 0.9, 0.8]  # black: b.jpg (intact) now wrong in both runs
+    html = write_benchmark_report(results, tmp_path).read_text()
+    section = html[html.index("Photos most often wrong"):]
+    black, hostile = section.split("<h3>")[1:3]
+    assert black.startswith("black: 2 of 4 photos wrong in a run")
+    rows = black.split("<tr>")[2:]  # b.jpg twice (mean P 0.65), then d.jpg (labelled deformed, 0.2 and 0.8) once
+    assert "b.jpg" in rows[0] and "<td>intact</td><td>2 of 2</td><td>0.650</td>" in rows[0]
+    assert "d.jpg" in rows[1] and "<td>deformed</td><td>1 of 2</td><td>0.500</td>" in rows[1]
+    assert "a.jpg" not in black and "c.jpg" not in black  # right in every run
+    assert "0 of 4 photos wrong in a run" in hostile and "none" in hostile and "<script" not in hostile

@@ -25,8 +25,9 @@ def photo_link(path: str) -> str:
     return escape(Path(path).resolve().as_uri())
 
 
-def _wrong_table(wrong: list[dict]) -> str:
-    """Every wrong prediction: thumbnail and file name, each a link to the full-size image, label, P(deformed)."""
+def wrong_table(wrong: list[dict], runs: int | None = None) -> str:
+    """Wrong predictions: thumbnail and file name, each a link to the full-size image, label, P(deformed); with
+    ``runs``, also in how many of them each photo (its ``wrong`` count) was wrong."""
     if not wrong:
         return '<p class="note">none</p>'
     rows = []
@@ -34,10 +35,12 @@ def _wrong_table(wrong: list[dict]) -> str:
         uri = thumbnail_uri(p["path"], 64)
         img = f'<img src="{uri}" alt="">' if uri else '<div class="missing" style="width:64px;height:64px">?</div>'
         link = photo_link(p["path"])
+        count = f'<td>{p["wrong"]} of {runs}</td>' if runs else ""
         rows.append(f'<tr><td><a href="{link}">{img}</a></td><td class=name><a href="{link}">{escape(Path(p["path"]).name)}</a>'
-                    f'</td><td>{CLASSES[p["y"]]}</td><td>{p["prob"]:.3f}</td></tr>')
+                    f'</td><td>{CLASSES[p["y"]]}</td>{count}<td>{p["prob"]:.3f}</td></tr>')
+    head = "<th>wrong in runs</th><th>mean P(deformed)</th>" if runs else "<th>P(deformed)</th>"
     return ('<div class=scroll><table class="wrong"><tr><th>photo</th><th>file (full size)</th><th>true label</th>'
-            f'<th>P(deformed)</th></tr>{"".join(rows)}</table></div>')
+            f'{head}</tr>{"".join(rows)}</table></div>')
 
 
 def predictions_section(head: tuple[str, str, dict] | None) -> str:
@@ -59,5 +62,5 @@ def predictions_section(head: tuple[str, str, dict] | None) -> str:
     title = f"Right ({len(right)})" + (f": the {len(shown)} least confident" if len(shown) < len(right) else "")
     return (f"<h2>Predictions on {where}</h2><p class=note>Model trained on <b>{escape(v)}</b>; the true label and "
             f"the predicted probability of <i>deformed</i> (threshold {thr:g}); each file name links to the full-size "
-            f"image.</p><h3>Wrong ({len(wrong)}), most confident first</h3>{_wrong_table(wrong)}<h3>{title}</h3>"
+            f"image.</p><h3>Wrong ({len(wrong)}), most confident first</h3>{wrong_table(wrong)}<h3>{title}</h3>"
             + (f'<div class="grid">{cells}</div>' if cells else '<p class="note">none</p>'))
