@@ -83,3 +83,25 @@ def test_piped_predict_prints_whole_paths(long_paths, tmp_path):
     res = invoke("predict", tmp_path / "model", tmp_path)
     assert res.exit_code == 0, res.output
     assert res.stdout.splitlines() == [f"{long_paths[0]}\t0.2500\tintact", f"{long_paths[1]}\t0.7500\tdeformed"]
+
+
+def test_sim2real_names_the_photos_most_often_wrong(monkeypatch, tmp_path):
+    paths = [f"/photos/{c}/{i}[x].jpg" for c, i in (("intact", 0), ("intact", 1), ("deformed", 2))] + \
+        [f"/photos/deformed/{i}.jpg" for i in range(3, 10)]
+    labels = [0, 0, 1] + [1] * 7
+    runs = [{"variant": "[red]v", "data_seed": 0, "composite_seed": 0, "train_seed": k,
+             "real_predictions": [0.9, 0.2 + 0.5 * k, 0.1] + [0.4] * 7} for k in range(2)]
+    row = {"n_runs": 2, **{f"{k}_{s}": 0.5 for k in ("accuracy", "f1", "precision", "recall", "synthetic_accuracy")
+                           for s in ("mean", "std")}}
+    results = {"runs": runs, "seconds": 3.0, "variants": {"[red]v": row}, "majority_baseline": 0.8,
+               "real_paths": paths, "real_labels": labels, "settings": {"train": {"threshold": 0.5}}}
+    monkeypatch.setattr(Engine, "sim2real", lambda self, *a, **kw: results)
+    res = invoke("bench", "sim2real", "--real", tmp_path, "--out", tmp_path / "b")
+    assert res.exit_code == 0, res.output
+    line = next(line for line in res.stdout.splitlines() if line.startswith("most often wrong"))
+    # 10 photos wrong: those wrong in both runs first, the confidently wrong (0.9, 0.1) before the 0.4s; the intact
+    # photo wrong in one run last, among the 5 left unnamed
+    assert line.startswith("most often wrong, [red]v: intact/0[x].jpg (2 of 2), deformed/2[x].jpg (2 of 2), "
+                           "deformed/3.jpg (2 of 2), ")
+    assert line.endswith(" and 5 more") and "intact/1[x].jpg" not in line
+    assert res.stdout.strip().endswith(f"report: {tmp_path / 'b' / 'report.html'}")

@@ -28,7 +28,7 @@ def results():
             "real_paths": ["/photos/a.jpg", "/photos/b.jpg", "/photos/c.jpg", "/photos/d.jpg"], "real_labels": LABELS,
             "majority_baseline": 0.5, "adapt": None, "seconds": 12.0,
             "plan": {"data_seeds": 1, "composite_seeds": 2, "train_seeds": 2, "variants": ["black", HOSTILE]},
-            "settings": {"train": {"epochs": 15}}, "variants": aggregate(runs), "runs": runs}
+            "settings": {"train": {"epochs": 15, "threshold": 0.5}}, "variants": aggregate(runs), "runs": runs}
 
 
 def test_benchmark_report_shows_mean_and_std_of_every_variant(results, tmp_path):
@@ -71,7 +71,6 @@ def test_benchmark_big_number_is_green_only_when_every_run_beats_the_baseline(re
 def test_benchmark_report_shows_the_ensembles_and_the_difference_to_a_baseline(results, tmp_path):
     from deformsim.evaluate.paired import compare, ensembles
 
-    results["settings"]["train"]["threshold"] = 0.5
     results["ensembles"] = ensembles(results)
     results["baseline"] = {"results": f"/runs/{HOSTILE}/results.json", "comparison": compare(results, results)}
     html = write_benchmark_report(results, tmp_path / "bench").read_text()
@@ -94,7 +93,6 @@ def test_benchmark_report_warns_when_the_synthetic_accuracy_is_low(results, tmp_
 
 
 def test_benchmark_report_lists_the_photos_most_often_wrong_first(results, tmp_path):
-    results["settings"]["train"]["threshold"] = 0.5
     results["runs"][1]["real_predictions"] = [0.2, 0.7, 0.9, 0.8]  # black: b.jpg (intact) now wrong in both runs
     html = write_benchmark_report(results, tmp_path).read_text()
     section = html[html.index("Photos most often wrong"):]

@@ -7,11 +7,13 @@ import json
 from pathlib import Path
 
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from deformsim.cli.common import console
 
 WIDE = 200  # columns of a summary printed into a file or pipe, so that no cell wraps
+NAMED_WRONG = 5  # photos named per variant after a benchmark's table; its report lists them all
 
 
 def _share(value: float | None, interval: list[float] | None = None) -> str:
@@ -28,9 +30,12 @@ def metric_cell(m: dict, key: str) -> str:
     return _share(m[key], (m.get("interval") or {}).get(key))
 
 
-def print_table(table: Table, report: Path | None = None) -> None:
-    """Print ``table`` on stdout (unwrapped in a file or pipe), then where the report is."""
+def print_table(table: Table, report: Path | None = None, notes: tuple[str, ...] = ()) -> None:
+    """Print ``table`` on stdout (unwrapped in a file or pipe), then the lines of rich markup ``notes``, then where
+    the report is."""
     (console if console.is_terminal else Console(width=WIDE)).print(table)
+    for line in notes:
+        console.print(line, highlight=False, soft_wrap=True)
     if report is not None:
         console.print(f"[bold]report:[/] {report}", highlight=False, soft_wrap=True)
 
@@ -58,8 +63,23 @@ def _spreads(row: dict, keys: tuple[str, ...]) -> list[str]:
     return [f"{100 * row[f'{k}_mean']:.1f} ± {100 * row[f'{k}_std']:.1f}%" for k in keys]
 
 
+def _often_wrong(results: dict) -> tuple[str, ...]:
+    """Per variant with a wrong run: the photos its runs most often got wrong, by class folder and file name."""
+    from deformsim.evaluate.paired import often_wrong
+
+    lines = []
+    for variant, photos in often_wrong(results).items():
+        if photos:
+            named = ", ".join(f"{Path(p['path']).parent.name}/{Path(p['path']).name} ({p['wrong']} of {p['runs']})"
+                              for p in photos[:NAMED_WRONG])
+            more = f" and {len(photos) - NAMED_WRONG} more" if len(photos) > NAMED_WRONG else ""
+            lines.append(f"[bold]most often wrong, {escape(variant)}:[/] {escape(named + more)}")
+    return tuple(lines)
+
+
 def sim2real_summary(results: dict, report: Path) -> None:
-    """Print the sim-to-real benchmark's ``results`` (mean ± std over its runs) and where its report is."""
+    """Print the sim-to-real benchmark's ``results`` (mean ± std over its runs), the photos most often wrong and
+    where its report is."""
     table = Table(title=f"Real-photo results over {len(results['runs'])} runs (mean ± std)", header_style="bold")
     for col in ("trained on", "runs", "accuracy", "F1", "precision", "recall", "synthetic accuracy", "majority class"):
         table.add_column(col, justify="left" if col == "trained on" else "right")
@@ -70,7 +90,7 @@ def sim2real_summary(results: dict, report: Path) -> None:
         if e:
             cells = _spreads(e, ("accuracy", "f1", "precision", "recall"))
             table.add_row(f"{variant}, ensemble of {e['members']} seeds", str(e["n_draws"]), *cells, "", "")
-    print_table(table, report)
+    print_table(table, report, _often_wrong(results) if "real_labels" in results else ())
     if results.get("baseline"):
         baseline_summary(results)
 

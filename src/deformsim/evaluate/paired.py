@@ -1,5 +1,5 @@
-"""What the sim-to-real benchmark adds to its runs: the ensemble of each draw's training seeds, and the paired
-difference to a baseline benchmark on the same photos.
+"""What the sim-to-real benchmark adds to its runs: the ensemble of each draw's training seeds, the photos most often
+judged wrong, and the paired difference to a baseline benchmark on the same photos.
 
 Two benchmarks are compared run by run: a run of one pairs with the run of the other with the same variant and
 data, background and training seeds (when the baseline trained on other variants, runs pair by seeds alone).
@@ -53,6 +53,23 @@ def ensembles(results: dict) -> dict[str, dict]:
             row[f"{k}_mean"] = float(s[k].mean())
             row[f"{k}_std"] = float(s[k].std(ddof=1)) if len(groups) > 1 else 0.0
         out[variant] = row
+    return out
+
+
+def often_wrong(results: dict) -> dict[str, list[dict]]:
+    """Per variant: every real photo that one of its runs judged wrong, as ``path``, ``y``, ``wrong`` (how many runs
+    did) of ``runs`` and ``prob`` (its mean P(deformed) over them); most often wrong first, then the furthest wrong
+    on average."""
+    y = np.asarray(results["real_labels"], dtype=bool)
+    threshold = results["settings"]["train"]["threshold"]
+    out = {}
+    for variant, groups in _groups(results["runs"]).items():
+        prob = np.array([r["real_predictions"] for runs in groups.values() for r in runs])
+        wrong, mean = ((prob >= threshold) != y).sum(axis=0), prob.mean(axis=0)
+        off = np.where(y, -mean, mean)  # the mean leaning to the wrong class
+        order = sorted(np.flatnonzero(wrong), key=lambda i: (-wrong[i], -off[i]))
+        out[variant] = [{"path": results["real_paths"][i], "y": int(y[i]), "wrong": int(wrong[i]), "runs": len(prob),
+                         "prob": float(mean[i])} for i in order]
     return out
 
 

@@ -8,12 +8,10 @@ import json
 from html import escape
 from pathlib import Path
 
-import numpy as np
-
 from deformsim.atomic import write_text
-from deformsim.config import TrainConfig
 from deformsim.evaluate.calibration import reliability
 from deformsim.evaluate.experiments import low_synthetic_line
+from deformsim.evaluate.paired import often_wrong
 from deformsim.report.figures import data_uri, error_bars_png, reliability_png
 from deformsim.report.html import CSS
 from deformsim.report.predictions import wrong_table
@@ -131,25 +129,15 @@ def _runs_table(results: dict, labels: list[int] | None) -> str:
     return f'<table class="t2 runs">{head}{"".join(rows)}</table>'
 
 
-def _often_wrong(results: dict, labels: list[int]) -> str:
-    """Per variant, every real photo that a run got wrong: in how many of its runs, and its mean P(deformed) over
-    them; most often wrong first, then the most confidently wrong."""
-    threshold = results.get("settings", {}).get("train", {}).get("threshold", TrainConfig.model_fields["threshold"].default)
-    y = np.asarray(labels, dtype=bool)
-    blocks = []
-    for v in results["variants"]:
-        mine = _mine(results, v)
-        probs = np.array([r["real_predictions"] for r in mine])
-        wrong, mean = ((probs >= threshold) != y).sum(axis=0), probs.mean(axis=0)
-        order = sorted(np.flatnonzero(wrong), key=lambda i: (-wrong[i], -abs(mean[i] - threshold)))
-        photos = [{"path": results["real_paths"][i], "y": int(y[i]), "prob": float(mean[i]), "wrong": int(wrong[i])}
-                  for i in order]
-        blocks.append(f"<h3>{escape(v)}: {len(photos)} of {len(y)} photos wrong in a run</h3>"
-                      + wrong_table(photos, runs=len(mine)))
+def _often_wrong(results: dict) -> str:
+    """Per variant, every real photo that a run got wrong, most often wrong first."""
+    blocks = "".join(f"<h3>{escape(v)}: {len(photos)} of {len(results['real_paths'])} photos wrong in a run</h3>"
+                     + wrong_table(photos, runs=len(_mine(results, v))) for v, photos in often_wrong(results).items())
     return ("<h2>Photos most often wrong</h2><p class=note>Each real photo that at least one run judged wrong: in "
-            f"how many runs of its variant, and its mean P(deformed) over them (threshold {threshold:g}); each file "
-            "name links to the full-size photo. A photo wrong in every run is a kind the renders do not cover; one "
-            "wrong in some runs only, a kind they cover by chance.</p>" + "".join(blocks))
+            "how many runs of its variant, and its mean P(deformed) over them (threshold "
+            f"{results['settings']['train']['threshold']:g}); each file name links to the full-size photo. A photo "
+            "wrong in every run is one the renders do not teach (or whose damage the photo does not show); one wrong in "
+            f"some runs only depends on the draw.</p>{blocks}")
 
 
 def _pooled(results: dict, labels: list[int]) -> dict[str, dict]:
@@ -205,7 +193,7 @@ def render_benchmark_html(results: dict) -> str:
         f"<h2>Every run ({len(results['runs'])})</h2><p class=note>Percent; the confusion matrix counts real photos "
         "(true intact: TN, FP; true deformed: FN, TP).</p>",
         _runs_table(results, labels),
-        _often_wrong(results, labels) if labels is not None else "",
+        _often_wrong(results) if labels is not None else "",
         calibration,
         _settings(results),
         "</main></body></html>",
