@@ -70,8 +70,7 @@ def _often_wrong(results: dict) -> tuple[str, ...]:
     lines = []
     for variant, photos in often_wrong(results).items():
         if photos:
-            named = ", ".join(f"{Path(p['path']).parent.name}/{Path(p['path']).name} ({p['wrong']} of {p['runs']})"
-                              for p in photos[:NAMED_WRONG])
+            named = ", ".join(f"{p['name']} ({p['wrong']} of {p['runs']})" for p in photos[:NAMED_WRONG])
             more = f" and {len(photos) - NAMED_WRONG} more" if len(photos) > NAMED_WRONG else ""
             lines.append(f"[bold]most often wrong, {escape(variant)}:[/] {escape(named + more)}")
     return tuple(lines)

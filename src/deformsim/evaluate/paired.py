@@ -57,9 +57,9 @@ def ensembles(results: dict) -> dict[str, dict]:
 
 
 def often_wrong(results: dict) -> dict[str, list[dict]]:
-    """Per variant: every real photo that one of its runs judged wrong, as ``path``, ``y``, ``wrong`` (how many runs
-    did) of ``runs`` and ``prob`` (its mean P(deformed) over them); most often wrong first, then the furthest wrong
-    on average."""
+    """Per variant: every real photo that one of its runs judged wrong, as ``path``, ``name`` (class folder and file
+    name), ``y``, ``wrong`` (how many runs did) of ``runs`` and ``prob`` (its mean P(deformed) over them); most often
+    wrong first, then the furthest wrong on average."""
     y = np.asarray(results["real_labels"], dtype=bool)
     threshold = results["settings"]["train"]["threshold"]
     out = {}
@@ -68,8 +68,9 @@ def often_wrong(results: dict) -> dict[str, list[dict]]:
         wrong, mean = ((prob >= threshold) != y).sum(axis=0), prob.mean(axis=0)
         off = np.where(y, -mean, mean)  # the mean leaning to the wrong class
         order = sorted(np.flatnonzero(wrong), key=lambda i: (-wrong[i], -off[i]))
-        out[variant] = [{"path": results["real_paths"][i], "y": int(y[i]), "wrong": int(wrong[i]), "runs": len(prob),
-                         "prob": float(mean[i])} for i in order]
+        paths = [results["real_paths"][i] for i in order]
+        out[variant] = [{"path": p, "name": _name(p), "y": int(y[i]), "wrong": int(wrong[i]), "runs": len(prob),
+                         "prob": float(mean[i])} for p, i in zip(paths, order)]
     return out
 
 
@@ -80,9 +81,14 @@ def _groups(runs: list[dict]) -> dict[str, dict[tuple, list[dict]]]:
     return out
 
 
+def _name(path: str) -> str:
+    """A scored photo by class folder and file name."""
+    return f"{Path(path).parent.name}/{Path(path).name}"
+
+
 def _photos(results: dict) -> list[tuple[str, int]]:
     """The scored photos by class folder and file name, with their labels."""
-    return [(f"{Path(p).parent.name}/{Path(p).name}", int(y)) for p, y in zip(results["real_paths"], results["real_labels"])]
+    return [(_name(p), int(y)) for p, y in zip(results["real_paths"], results["real_labels"])]
 
 
 def check_same_photos(results: dict, baseline: dict) -> None:

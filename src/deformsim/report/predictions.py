@@ -25,9 +25,9 @@ def photo_link(path: str) -> str:
     return escape(Path(path).resolve().as_uri())
 
 
-def wrong_table(wrong: list[dict], runs: int | None = None) -> str:
+def wrong_table(wrong: list[dict], counts: bool = False) -> str:
     """Wrong predictions: thumbnail and file name, each a link to the full-size image, label, P(deformed); with
-    ``runs``, also in how many of them each photo (its ``wrong`` count) was wrong."""
+    ``counts``, also in how many runs each photo was wrong (its ``wrong`` of ``runs``)."""
     if not wrong:
         return '<p class="note">none</p>'
     rows = []
@@ -35,10 +35,10 @@ def wrong_table(wrong: list[dict], runs: int | None = None) -> str:
         uri = thumbnail_uri(p["path"], 64)
         img = f'<img src="{uri}" alt="">' if uri else '<div class="missing" style="width:64px;height:64px">?</div>'
         link = photo_link(p["path"])
-        count = f'<td>{p["wrong"]} of {runs}</td>' if runs else ""
+        count = f'<td>{p["wrong"]} of {p["runs"]}</td>' if counts else ""
         rows.append(f'<tr><td><a href="{link}">{img}</a></td><td class=name><a href="{link}">{escape(Path(p["path"]).name)}</a>'
                     f'</td><td>{CLASSES[p["y"]]}</td>{count}<td>{p["prob"]:.3f}</td></tr>')
-    head = "<th>wrong in runs</th><th>mean P(deformed)</th>" if runs else "<th>P(deformed)</th>"
+    head = "<th>wrong in runs</th><th>mean P(deformed)</th>" if counts else "<th>P(deformed)</th>"
     return ('<div class=scroll><table class="wrong"><tr><th>photo</th><th>file (full size)</th><th>true label</th>'
             f'{head}</tr>{"".join(rows)}</table></div>')
 
