@@ -133,6 +133,10 @@ class CameraConfig(_Model):
         None, description="fraction of the frame side the part's 2D bounding box (longer side) fills, drawn per image: "
         "the camera distance is solved for it (radius is then ignored); null = the drawn radius"
     )
+    fill_views: Annotated[list[FractionRange] | None, identity.WHEN_SET] = Field(
+        None, max_length=64, description="one fill range per camera (as azimuth_quadrants), e.g. top views from "
+        "farther away than side views; null = fill for every camera"
+    )
     offset: Annotated[float, identity.WHEN_SET] = Field(
         0.0, ge=0, le=0.5, description="the part's centre is shifted off the frame centre by up to this fraction of "
         "the frame in x and y (lens shift: no change of perspective)"
@@ -148,15 +152,22 @@ class CameraConfig(_Model):
 
     @model_validator(mode="after")
     def _views(self) -> "CameraConfig":
-        if self.polar_views is not None and len(self.polar_views) != len(self.azimuth_quadrants):
-            raise ValueError(f"camera.polar_views has {len(self.polar_views)} ranges for "
-                             f"{len(self.azimuth_quadrants)} cameras: give one per azimuth range")
+        for name in ("polar_views", "fill_views"):
+            views = getattr(self, name)
+            if views is not None and len(views) != len(self.azimuth_quadrants):
+                raise ValueError(f"camera.{name} has {len(views)} ranges for {len(self.azimuth_quadrants)} cameras: "
+                                 "give one per azimuth range")
         return self
 
     @property
     def polars(self) -> list[tuple[float, float]]:
         """Each camera's polar range: ``polar_views``, else ``polar`` for all."""
         return list(self.polar_views) if self.polar_views is not None else [self.polar] * len(self.azimuth_quadrants)
+
+    @property
+    def fills(self) -> list[tuple[float, float] | None]:
+        """Each camera's fill range: ``fill_views``, else ``fill`` (or None: the drawn radius) for all."""
+        return list(self.fill_views) if self.fill_views is not None else [self.fill] * len(self.azimuth_quadrants)
 
     @property
     def lens_fixed(self) -> float:
@@ -166,7 +177,7 @@ class CameraConfig(_Model):
     @property
     def framing(self) -> bool:
         """Any of the per-image framing options is on (else every image is framed as in the paper)."""
-        return (self.fill is not None or self.offset > 0 or self.partial > 0 or isinstance(self.lens_mm, tuple)
+        return (any(f is not None for f in self.fills) or self.offset > 0 or self.partial > 0 or isinstance(self.lens_mm, tuple)
                 or self.fstop is not None)
 
 
@@ -561,8 +572,9 @@ class TrainConfig(_Model):
         "constant", description="learning rate over the epochs: constant, or cosine decay to zero (fine-tuning)"
     )
     ensemble: int = Field(
-        1, ge=1, le=16, description="models trained with seeds seed, seed+1, ... and saved as one that predicts their "
-        "mean probability (they share the frozen layers, so their cached features too)"
+        1, ge=1, le=16, description="models trained with seeds seed, seed+1, ..., each on its own training/validation "
+        "split (bagging), saved as one that predicts their mean probability (they share the frozen layers, so their "
+        "cached features too)"
     )
     min_region: float = Field(
         0.0, ge=0, lt=1, description="deformed images whose deformed region (render.dense's region map) covers less "

@@ -3,6 +3,8 @@ and cropped test views."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import onnx
 import onnxruntime as ort
@@ -43,6 +45,26 @@ def test_an_ensemble_predicts_the_mean_of_its_members(ensemble_dir, blobs, tmp_p
     # the first member is the single model of the same seed
     fit(blobs, TrainConfig(**CFG), tmp_path / "single", progress=False)
     np.testing.assert_allclose(load(tmp_path / "single").predict_proba(paths), each[0].double().numpy(), atol=1e-6)
+
+
+def test_each_member_holds_out_its_own_fifth_and_the_ensemble_scores_out_of_bag(ensemble_dir, blobs):
+    ckpt, _ = read_checkpoint(ensemble_dir)
+    splits = ckpt["split"]["members"]
+    assert len(splits) == 3 and ckpt["split"]["val"] == splits[0]["val"]  # member 0 splits as the single model
+    for s in splits:
+        assert not set(s["train"]) & set(s["val"]) and len(s["train"]) + len(s["val"]) == len(blobs)
+    assert len({tuple(sorted(s["val"])) for s in splits}) == 3  # bagging: each member misses other images
+    # out of bag: each held-out image scored by the mean of the members that held it out
+    held = sorted(set().union(*(s["val"] for s in splits)))
+    path = dict(zip(blobs["id"], blobs["path"]))
+    y = dict(zip(blobs["id"], blobs["y"]))
+    nets = members(load(ensemble_dir).model)
+    with torch.no_grad():
+        prob = {i: np.mean([float(net.predict(load_image(path[i], 64)[None])[0]) for net, s in zip(nets, splits)
+                            if i in s["val"]]) for i in held}
+    got = json.loads((ensemble_dir / "train.json").read_text())["ensemble"]
+    assert got["n_val"] == len(held) > len(splits[0]["val"])
+    assert got["val_acc"] == pytest.approx(np.mean([(prob[i] >= 0.5) == y[i] for i in held]))
 
 
 def test_an_ensemble_shares_one_stem_and_round_trips(ensemble_dir, blobs):

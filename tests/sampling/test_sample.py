@@ -200,3 +200,21 @@ def test_polar_views_draw_each_cameras_polar_from_its_own_range():
     assert all(sample_params(i, 0, plain, spec, hdris) == sample_params(i, 0, same, spec, hdris) for i in range(4))
     with pytest.raises(UserError, match="camera.polar_views has 2 ranges for 4 cameras"):
         load_config("quick", {"camera.polar_views": [[0, 10], [80, 90]]})
+
+
+def test_fill_views_draw_each_cameras_fill_from_its_own_range():
+    from deformsim.errors import UserError
+    from deformsim.hdri import list_hdris
+
+    spec, hdris = load_spec(None), list_hdris(None)
+    views = [[0.5, 0.7], [0.5, 0.7], [0.5, 0.7], [0.2, 0.3]]
+    cfg = load_config("quick", {"camera.fill_views": views})
+    fills = np.array([[c.fill for c in sample_params(i, 0, cfg, spec, hdris).cameras] for i in range(20)])
+    assert (fills[:, :3] >= 0.5).all() and (fills[:, :3] <= 0.7).all()
+    assert (fills[:, 3] >= 0.2).all() and (fills[:, 3] <= 0.3).all()
+    # the same draws as one fill range for all when the ranges are that one
+    one = load_config("quick", {"camera.fill": [0.3, 0.6]})
+    same = load_config("quick", {"camera.fill_views": [[0.3, 0.6]] * 4})
+    assert all(sample_params(i, 0, one, spec, hdris) == sample_params(i, 0, same, spec, hdris) for i in range(4))
+    with pytest.raises(UserError, match="camera.fill_views has 3 ranges for 4 cameras"):
+        load_config("quick", {"camera.fill_views": views[:3]})

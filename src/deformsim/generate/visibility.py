@@ -86,15 +86,14 @@ def typical_weights(cfg: Config, spec: Spec) -> dict[str, float]:
 
 
 def pixels_per_metre(cfg: Config, size: tuple[float, float, float]) -> float:
-    """Pixels per metre on the smallest part a render shows: its longest side at ``camera.fill``'s low end, else
-    at the farthest camera radius and widest lens."""
+    """Pixels per metre on the smallest part a render shows: the smallest over the cameras of its longest side at
+    the low end of the camera's fill (``camera.fill`` or ``fill_views``), else at the farthest radius and widest lens."""
     res, largest = cfg.render.resolution, max(size)
     cam = cfg.camera
-    if cam.fill is not None:
-        return res * cam.fill[0] / largest
     lens = cam.lens_mm[0] if isinstance(cam.lens_mm, tuple) else cam.lens_mm
     distance = cam.radius[1] * largest / REFERENCE_SIZE
-    return res / (distance * SENSOR_MM / lens)
+    by_radius = res / (distance * SENSOR_MM / lens)
+    return min(res * f[0] / largest if f is not None else by_radius for f in cam.fills)
 
 
 def invisible_keys(cfg: Config, spec: Spec, size: tuple[float, float, float] | None) -> str | None:

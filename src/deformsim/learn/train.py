@@ -8,8 +8,10 @@ images (:mod:`deformsim.learn.features`); otherwise each batch goes through the 
 
 ``train.target`` other than ``label`` trains a head on the dense labels instead (:mod:`deformsim.learn.targets`).
 
-``train.ensemble`` K > 1 trains K members one after the other on the same split and the same cached stem, member
-k with seed ``seed + k`` (initialisation, batch order, dropout); the history is their mean per epoch.
+``train.ensemble`` K > 1 trains K members one after the other on the same cached stem, member k with seed
+``seed + k`` (its own training/validation split, initialisation, batch order, dropout): a bagged ensemble whose
+members each miss a different fifth of the images. The history is their mean per epoch; the ensemble's validation
+scores are out of bag (each image by the members that held it out).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from deformsim.learn import checkpoint
 from deformsim.learn.data import ImageSet, augmenter
 from deformsim.learn.device import pick_device, set_threads
 from deformsim.learn.features import cached_stem
-from deformsim.learn.models import DeformNet, build, members
+from deformsim.learn.models import LOGIT_EPS, DeformNet, build, members
 from deformsim.log import get_logger, progress_bar
 
 log = get_logger(__name__)
@@ -79,6 +81,28 @@ def _evaluate(model: DeformNet, inputs: _Inputs, rows: torch.Tensor, y: torch.Te
     loss = nn.functional.binary_cross_entropy_with_logits(logits, target).item()
     acc = ((torch.sigmoid(logits) >= cfg.threshold).float() == target).float().mean().item()
     return loss, acc
+
+
+def _out_of_bag(nets: list[DeformNet], inputs: _Inputs, val_rows: list[torch.Tensor], y: torch.Tensor,
+                cfg: TrainConfig) -> dict:
+    """An ensemble's validation scores out of bag: each image scored by the mean probability of the members that
+    held it out (images every member trained on are left out)."""
+    held = sorted({int(i) for rows in val_rows for i in rows})
+    if not held:
+        return {"members": len(nets), "val_loss": None, "val_acc": None, "n_val": 0}
+    total, count = torch.zeros(len(y), device=y.device), torch.zeros(len(y), device=y.device)
+    with torch.no_grad():
+        for net, rows in zip(nets, val_rows):
+            if len(rows):
+                net.eval()
+                total[rows.to(y.device)] += torch.cat([torch.sigmoid(net.tail(inputs(b, train=False)))
+                                                       for b in rows.split(cfg.batch_size)])
+                count[rows.to(y.device)] += 1
+    rows = torch.as_tensor(held, device=y.device)
+    prob, target = (total[rows] / count[rows]).clamp(LOGIT_EPS, 1 - LOGIT_EPS), y[rows]
+    loss = nn.functional.binary_cross_entropy(prob, target).item()
+    acc = ((prob >= cfg.threshold).float() == target).float().mean().item()
+    return {"members": len(nets), "val_loss": loss, "val_acc": acc, "n_val": len(held)}
 
 
 def _step(model: DeformNet, opt, z: torch.Tensor, target: torch.Tensor, cfg: TrainConfig) -> tuple[float, int]:
@@ -210,15 +234,16 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     outputs = output_names(table, cfg.target)
     model, weights = build(cfg, outputs=len(outputs))
     model.to(device)
-    train_rows, val_rows = (torch.as_tensor(r, dtype=torch.long) for r in split(table, cfg.split, cfg.seed))
     y = torch.tensor(table["y"].to_numpy(dtype="float32"), device=device)
     inputs = _Inputs(model, list(table["path"]), cfg, device, progress)
     nets = members(model)
     opts = [_optimiser(net, cfg) for net in nets]
     seeded = [cfg.model_copy(update={"seed": cfg.seed + k}) for k in range(len(nets))]
+    splits = [tuple(torch.as_tensor(r, dtype=torch.long) for r in split(table, cfg.split, c.seed)) for c in seeded]
+    train_rows, val_rows = splits[0]
     if cfg.target == "label":
-        history = _mean_history([_fit_label(net, opt, inputs, train_rows, val_rows, y, c, device, progress)
-                                 for net, opt, c in zip(nets, opts, seeded)])
+        history = _mean_history([_fit_label(net, opt, inputs, t, v, y, c, device, progress)
+                                 for net, opt, c, (t, v) in zip(nets, opts, seeded, splits)])
     else:
         history = fit_head(model, inputs.all(torch.arange(len(table)), cfg.batch_size), table, train_rows, val_rows,
                            cfg, progress)
@@ -226,23 +251,24 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     if cfg.feature_norm and cfg.target == "label":
         from deformsim.learn.adapt import set_feature_stats
 
-        train_stems = inputs.all(train_rows, cfg.batch_size)
-        for net in nets:
-            set_feature_stats(net, train_stems, cfg.batch_size)
+        for net, (t, _) in zip(nets, splits):
+            set_feature_stats(net, inputs.all(t, cfg.batch_size), cfg.batch_size)
     if adapt_paths:
-        infos = [_adapt(net, opt, inputs, train_rows, y, c, adapt_paths, device, progress)
-                 for net, opt, c in zip(nets, opts, seeded)]
+        infos = [_adapt(net, opt, inputs, t, y, c, adapt_paths, device, progress)
+                 for net, opt, c, (t, _) in zip(nets, opts, seeded, splits)]
         adapted = {"folder": str(adapt), **infos[0]}
     ensemble = None
     if len(nets) > 1:
-        loss, acc = _evaluate(model, inputs, val_rows, y, cfg)
-        ensemble = {"members": len(nets), "val_loss": loss, "val_acc": acc}
-        log.info("ensemble of %d: validation accuracy %s", len(nets), "-" if acc is None else f"{acc:.3f}")
+        ensemble = _out_of_bag(nets, inputs, [v for _, v in splits], y, cfg)
+        log.info("ensemble of %d: out-of-bag accuracy %s on %d images", len(nets),
+                 "-" if ensemble["val_acc"] is None else f"{ensemble['val_acc']:.3f}", ensemble["n_val"])
     out_dir = Path(out_dir)
     model_path = out_dir / checkpoint.MODEL_FILE
     seconds = time.perf_counter() - start
     _log_summary(history, cfg, len(train_rows), len(val_rows), seconds)
-    split_ids = {"train": table["id"].iloc[train_rows.numpy()].tolist(), "val": table["id"].iloc[val_rows.numpy()].tolist()}
+    ids = [{"train": table["id"].iloc[t.numpy()].tolist(), "val": table["id"].iloc[v.numpy()].tolist()}
+           for t, v in splits]
+    split_ids = ids[0] | ({"members": ids} if len(ids) > 1 else {})
     checkpoint.save(model_path, model, cfg, weights, history, split_ids, None if cfg.target == "label" else outputs)
     write_json(out_dir / "train.json", {"weights": weights, "seconds": seconds, "history": history,
                                         "n_train": len(train_rows), "n_val": len(val_rows), "adapted": adapted,

@@ -144,17 +144,17 @@ def draw_surface(index: int, seed: int, cfg: Config, photos: list[str] | None = 
 
 
 def draw_framing(index: int, seed: int, cfg: Config, cameras: tuple[CameraParams, ...]) -> tuple[CameraParams, ...]:
-    """``camera.fill``, ``offset``, ``partial``, a ``lens_mm`` range and ``fstop``: each image's framing; ``cameras``
-    unchanged when all are off. Every image takes the same draws whichever options are on, so turning one on
-    leaves the others' values as they were. f-numbers are drawn log-uniformly (stops are a ratio scale)."""
+    """``camera.fill`` (or ``fill_views``), ``offset``, ``partial``, a ``lens_mm`` range and ``fstop``: each image's
+    framing; ``cameras`` unchanged when all are off. Every image takes the same draws whichever options are on, so
+    turning one on leaves the others' values as they were. f-numbers are drawn log-uniformly (stops are a ratio scale)."""
     c = cfg.camera
     if not c.framing:
         return cameras
     rng = stream("framing", seed, index)
     out = []
-    for cam in cameras:
+    for cam, fills in zip(cameras, c.fills):
         u = rng.uniform(size=8)
-        fill = float(c.fill[0] + (c.fill[1] - c.fill[0]) * u[0]) if c.fill is not None else 0.0
+        fill = float(fills[0] + (fills[1] - fills[0]) * u[0]) if fills is not None else 0.0
         sx, sy = (float(c.offset * (2 * v - 1)) if c.offset > 0 else 0.0 for v in u[1:3])
         cut, side = 0.0, ""
         if c.partial > 0:
