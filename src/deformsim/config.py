@@ -159,15 +159,19 @@ class CameraConfig(_Model):
                                  "give one per azimuth range")
         return self
 
+    def _per_camera(self, views: list | None, one):
+        """``views`` (one per camera), else ``one`` for every camera."""
+        return list(views) if views is not None else [one] * len(self.azimuth_quadrants)
+
     @property
     def polars(self) -> list[tuple[float, float]]:
         """Each camera's polar range: ``polar_views``, else ``polar`` for all."""
-        return list(self.polar_views) if self.polar_views is not None else [self.polar] * len(self.azimuth_quadrants)
+        return self._per_camera(self.polar_views, self.polar)
 
     @property
     def fills(self) -> list[tuple[float, float] | None]:
         """Each camera's fill range: ``fill_views``, else ``fill`` (or None: the drawn radius) for all."""
-        return list(self.fill_views) if self.fill_views is not None else [self.fill] * len(self.azimuth_quadrants)
+        return self._per_camera(self.fill_views, self.fill)
 
     @property
     def lens_fixed(self) -> float:
@@ -177,8 +181,8 @@ class CameraConfig(_Model):
     @property
     def framing(self) -> bool:
         """Any of the per-image framing options is on (else every image is framed as in the paper)."""
-        return (any(f is not None for f in self.fills) or self.offset > 0 or self.partial > 0 or isinstance(self.lens_mm, tuple)
-                or self.fstop is not None)
+        return (any(f is not None for f in self.fills) or self.offset > 0 or self.partial > 0
+                or isinstance(self.lens_mm, tuple) or self.fstop is not None)
 
 
 _DROP_ONLY = identity.when(mode="drop")

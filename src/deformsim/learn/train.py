@@ -77,19 +77,20 @@ def _evaluate(model: DeformNet, inputs: _Inputs, rows: torch.Tensor, y: torch.Te
     model.eval()
     with torch.no_grad():
         logits = torch.cat([model.tail(inputs(b, train=False)) for b in rows.split(cfg.batch_size)])
-    target = y[rows.to(y.device)]
+    return _scores(logits, y[rows.to(y.device)], cfg.threshold)
+
+
+def _scores(logits: torch.Tensor, target: torch.Tensor, threshold: float) -> tuple[float, float]:
+    """BCE loss and accuracy of ``logits`` against ``target``."""
     loss = nn.functional.binary_cross_entropy_with_logits(logits, target).item()
-    acc = ((torch.sigmoid(logits) >= cfg.threshold).float() == target).float().mean().item()
+    acc = ((torch.sigmoid(logits) >= threshold).float() == target).float().mean().item()
     return loss, acc
 
 
 def _out_of_bag(nets: list[DeformNet], inputs: _Inputs, val_rows: list[torch.Tensor], y: torch.Tensor,
                 cfg: TrainConfig) -> dict:
     """An ensemble's validation scores out of bag: each image scored by the mean probability of the members that
-    held it out (images every member trained on are left out)."""
-    held = sorted({int(i) for rows in val_rows for i in rows})
-    if not held:
-        return {"members": len(nets), "val_loss": None, "val_acc": None, "n_val": 0}
+    held it out (as :class:`Ensemble` does, through its clamped logit; images every member trained on are left out)."""
     total, count = torch.zeros(len(y), device=y.device), torch.zeros(len(y), device=y.device)
     with torch.no_grad():
         for net, rows in zip(nets, val_rows):
@@ -98,10 +99,9 @@ def _out_of_bag(nets: list[DeformNet], inputs: _Inputs, val_rows: list[torch.Ten
                 total[rows.to(y.device)] += torch.cat([torch.sigmoid(net.tail(inputs(b, train=False)))
                                                        for b in rows.split(cfg.batch_size)])
                 count[rows.to(y.device)] += 1
-    rows = torch.as_tensor(held, device=y.device)
-    prob, target = (total[rows] / count[rows]).clamp(LOGIT_EPS, 1 - LOGIT_EPS), y[rows]
-    loss = nn.functional.binary_cross_entropy(prob, target).item()
-    acc = ((prob >= cfg.threshold).float() == target).float().mean().item()
+    held = torch.nonzero(count).flatten()
+    loss, acc = (None, None) if len(held) == 0 else _scores(torch.logit(total[held] / count[held], eps=LOGIT_EPS),
+                                                            y[held], cfg.threshold)
     return {"members": len(nets), "val_loss": loss, "val_acc": acc, "n_val": len(held)}
 
 
