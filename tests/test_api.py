@@ -29,8 +29,8 @@ def test_readme_python_example_runs(tmp_path, monkeypatch, capsys):
 
 
 def test_engine_takes_a_config_object_with_overrides():
-    engine = Engine(load_config("quick"), {"render.resolution": 96, "train.epochs": None})
-    assert engine.config.render.resolution == 96 and engine.config.train.epochs == 15
+    engine = Engine(load_config("quick", {"camera.fill": [0.3, 0.6]}), {"render.resolution": 96, "camera.fill": None})
+    assert engine.config.render.resolution == 96 and engine.config.camera.fill is None
 
 
 def test_engine_refuses_a_bad_override_with_one_line():

@@ -14,9 +14,12 @@ def test_presets_load_and_paper_has_the_papers_settings():
     assert (paper.train.lr, paper.train.batch_size, paper.train.epochs) == (1e-3, 32, 15)
 
 
-def test_overrides_apply_and_none_is_ignored():
-    cfg = load_config("quick", {"generate.n": 16, "render.resolution": 96, "render.samples": None})
-    assert (cfg.generate.n, cfg.render.resolution, cfg.render.samples) == (16, 96, load_config().render.samples)
+def test_overrides_apply_and_none_sets_null(tmp_path):
+    config = tmp_path / "config.yaml"
+    config.write_text("camera:\n  fill: [0.3, 0.6]\n")
+    cfg = load_config(config, {"generate.n": 16, "render.resolution": 96, "camera.fill": None})
+    assert (cfg.generate.n, cfg.render.resolution, cfg.camera.fill) == (16, 96, None)
+    assert load_config(config).camera.fill == (0.3, 0.6)
 
 
 @pytest.mark.parametrize(

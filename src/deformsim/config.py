@@ -639,7 +639,7 @@ def load_config(source: str | Path | None = None, overrides: dict | None = None,
                 flags: dict[str, str] | None = None) -> Config:
     """Load a config from a YAML path or preset name (default ``quick``), apply dotted overrides.
 
-    ``overrides`` maps dotted keys (``"render.resolution"``) to values; ``None`` values are ignored.
+    ``overrides`` maps dotted keys (``"render.resolution"``) to values; ``None`` sets null (an effect off).
     ``flags`` names where an override came from (``{"generate.n": "--n"}``), for error messages.
     Raises :class:`UserError` with one line naming the bad file or value (a bad override by its flag).
     """
@@ -649,16 +649,14 @@ def load_config(source: str | Path | None = None, overrides: dict | None = None,
         path = preset_path(str(source))
     if not path.is_file():
         raise UserError(f"config file not found: {source} (presets: {', '.join(list_presets())})")
-    given = {k: v for k, v in (overrides or {}).items() if v is not None}
+    given = overrides or {}
     return validate_config(apply_overrides(read_mapping(path, "config"), given), str(path), given, flags)
 
 
 def apply_overrides(data: dict, overrides: dict | None) -> dict:
-    """``data`` with dotted keys (``"render.resolution"``) set to their values; ``None`` values are ignored, and so
-    is a key under a value that is no mapping (validation names that value)."""
+    """``data`` with dotted keys (``"render.resolution"``) set to their values (``None`` is YAML's null); a key under
+    a value that is no mapping is ignored (validation names that value)."""
     for key, value in (overrides or {}).items():
-        if value is None:
-            continue
         node = data
         *parents, leaf = key.split(".")
         for p in parents:

@@ -16,6 +16,14 @@ def test_flags_and_overrides_set_config_keys():
     assert engine.progress is False
 
 
+def test_set_null_turns_a_setting_off(tmp_path):
+    """`--set composite.effects.blur=null` switches the blur off (it was silently ignored); the other effects stay."""
+    config = tmp_path / "config.yaml"
+    config.write_text("composite:\n  effects: {}\n")
+    effects = ConfigArgs(config, sets=["composite.effects.blur=null"]).engine().config.composite.effects
+    assert effects.blur is None and effects.noise == ConfigArgs(config).engine().config.composite.effects.noise
+
+
 def test_a_bad_value_is_named_by_its_flag_or_its_key():
     with pytest.raises(UserError, match=r"^--n 3: .*multiple of the 4 cameras"):
         ConfigArgs("quick", {"--n": ("generate.n", 3)}).engine()
