@@ -3,7 +3,7 @@
 Beads are rolled into the side wall, the ends are double-seamed (a rim that stands out past the body at the top
 and bottom), and each end panel is recessed behind a countersink with concentric expansion rings. The stated
 diameter is across the seams, the height from seam to seam (default 73 x 110 mm, a common food-tin size):
-    python examples/tin/make_tin.py OUT.stl [--diameter 73] [--height 110] [--beads 14] [--segments 128]
+    python examples/tin/make_tin.py OUT.stl [--diameter 73] [--height 110] [--beads 14] [--segments 128] [--ends rings]
 """
 
 from __future__ import annotations
@@ -18,7 +18,10 @@ SEAM_HEIGHT = 3.2  # mm: the seam's height at each end
 PLAIN_BAND = 14.0  # mm: plain wall between each seam and the nearest bead
 BEAD_DEPTH, BEAD_WIDTH = 0.9, 2.2  # mm: how far a bead is rolled in, and its half-width (a smooth groove)
 RECESS, COUNTERSINK = 3.0, 4.2  # mm: the end panel's and the countersink's depth behind the seam's face
-RINGS, RING_HEIGHT = 2, 0.5  # expansion rings on each end panel, and how far they stand proud (mm)
+RING_HEIGHT = 0.5  # mm: how far the end panels' expansion rings stand proud
+# End panels: "rings", two rings spread over the panel; "flat", three rings in its outer third round a flat centre
+# that stands proud by a step (mm), as on many sanitary food-can ends: (rings, span of their radii, half-width mm, step)
+ENDS = {"rings": (2, (0.4, 0.75), 1.6, 0.0), "flat": (3, (0.7, 0.9), 1.2, 0.8)}
 
 
 def bead_profile(z: np.ndarray, height: float, beads: int) -> np.ndarray:
@@ -31,17 +34,20 @@ def bead_profile(z: np.ndarray, height: float, beads: int) -> np.ndarray:
     return np.minimum(inset, BEAD_DEPTH)
 
 
-def end_profile(radius: float) -> np.ndarray:
+def end_profile(radius: float, ends: str = "rings") -> np.ndarray:
     """The bottom end from the axis out to the body: (r, z) points, z measured up from the seam's face.
 
-    The panel (recessed by :data:`RECESS`, with :data:`RINGS` expansion rings) runs into the countersink, the
+    The panel (recessed by :data:`RECESS`, with the expansion rings of ``ends``) runs into the countersink, the
     chuck wall drops to the seam's face, the seam rounds over its outer edge and tucks back to the body wall."""
     body = radius - SEAM_OVERHANG
     inner = body - 4.5  # the seam's inner edge
-    panel_r = np.linspace(0.0, inner - 3.0, 90)
-    ring_r = np.linspace(0.4, 0.75, RINGS) * (inner - 3.0)
-    rings = sum(RING_HEIGHT * np.exp(-(((panel_r - c) / 1.6) ** 2)) for c in ring_r)
-    panel = np.stack([panel_r, RECESS - rings], 1)  # rings stand proud: towards the seam's face
+    count, span, width, step = ENDS[ends]
+    outer = inner - 3.0
+    panel_r = np.linspace(0.0, outer, 90 if ends == "rings" else 120)
+    ring_r = np.linspace(*span, count) * outer
+    rings = sum(RING_HEIGHT * np.exp(-(((panel_r - c) / width) ** 2)) for c in ring_r)
+    centre = step / (1 + np.exp((panel_r - 0.58 * outer) / 0.5))  # the flat centre's step (none on "rings")
+    panel = np.stack([panel_r, RECESS - rings - centre], 1)  # rings stand proud: towards the seam's face
     a = np.linspace(0, np.pi, 9)[1:]  # the countersink: a half-round groove into the tin
     sink = np.stack([inner - 1.5 - 1.5 * np.cos(a), RECESS + (COUNTERSINK - RECESS) * np.sin(a)], 1)
     chuck = np.array([[inner + 0.3, 2.0], [inner + 0.5, 0.8]])
@@ -54,10 +60,10 @@ def end_profile(radius: float) -> np.ndarray:
     return np.concatenate([panel, sink, chuck, lip_in, lip_out, wall])
 
 
-def profile(diameter: float, height: float, beads: int) -> np.ndarray:
+def profile(diameter: float, height: float, beads: int, ends: str = "rings") -> np.ndarray:
     """The whole outline (r, z) from the bottom's centre, up the side wall, to the top's centre."""
     radius = diameter / 2
-    bottom = end_profile(radius)
+    bottom = end_profile(radius, ends)
     z0, z1 = bottom[-1, 1], height - bottom[-1, 1]
     z = np.linspace(z0, z1, max(int((z1 - z0) / 0.5), 2) + 1)[1:-1]
     side = np.stack([radius - SEAM_OVERHANG - bead_profile(z, height, beads), z], 1)
@@ -81,11 +87,12 @@ def revolve(outline: np.ndarray, segments: int) -> np.ndarray:
     return np.concatenate([fans[0], quads, fans[1]])
 
 
-def tin(diameter: float = 73.0, height: float = 110.0, beads: int = 14, segments: int = 128) -> np.ndarray:
+def tin(diameter: float = 73.0, height: float = 110.0, beads: int = 14, segments: int = 128,
+        ends: str = "rings") -> np.ndarray:
     """The tin's triangles (mm), standing on its bottom seam at z = 0."""
     if diameter < 20 or height < 2 * PLAIN_BAND or segments < 8 or beads < 0:
         raise ValueError(f"a tin needs diameter >= 20 mm, height >= {2 * PLAIN_BAND:g} mm, segments >= 8, beads >= 0")
-    return revolve(profile(diameter, height, beads), segments)
+    return revolve(profile(diameter, height, beads, ends), segments)
 
 
 def write_stl(path: Path, tris: np.ndarray) -> None:
@@ -106,6 +113,7 @@ if __name__ == "__main__":
     ap.add_argument("--height", type=float, default=110.0, help="seam to seam, mm")
     ap.add_argument("--beads", type=int, default=14, help="beads rolled into the side wall")
     ap.add_argument("--segments", type=int, default=128, help="facets around")
+    ap.add_argument("--ends", choices=sorted(ENDS), default="rings", help="the end panels' expansion rings")
     args = ap.parse_args()
-    write_stl(args.out, tin(args.diameter, args.height, args.beads, args.segments))
+    write_stl(args.out, tin(args.diameter, args.height, args.beads, args.segments, args.ends))
     print(f"wrote {args.out}")

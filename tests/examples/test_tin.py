@@ -45,7 +45,8 @@ def edges_and_volume(tris: np.ndarray) -> tuple[dict, float]:
     return dict(zip(map(tuple, keys), counts)), float(volume)
 
 
-@pytest.mark.parametrize("args, size", [((), (73, 73, 110)), (("--diameter", "99", "--height", "119"), (99, 99, 119))])
+@pytest.mark.parametrize("args, size", [((), (73, 73, 110)), (("--diameter", "99", "--height", "119"), (99, 99, 119)),
+                                        (("--ends", "flat"), (73, 73, 110))])
 def test_the_tin_is_watertight_outward_and_the_stated_size(tmp_path, args, size):
     tris = make_tin(tmp_path / "tin.stl", *args)
     edges, volume = edges_and_volume(tris)
@@ -65,6 +66,16 @@ def test_the_tin_has_beads_seams_and_recessed_ends(tin):
     assert r.max() - r[(z > 10) & (z < 100)].max() > 0.8  # the seams stand out past the body
     centre = r < 5
     assert z[centre].min() > 2 and z[centre].max() < 108  # end panels recessed behind the seams
+
+
+def test_flat_ends_have_a_flat_centre_and_their_rings_near_the_seam(tmp_path):
+    """`--ends flat`: the panel is level across its middle half and ridged only in its outer third."""
+    pts = make_tin(tmp_path / "tin.stl", "--ends", "flat", "--segments", "48").reshape(-1, 3)
+    r, z = np.hypot(pts[:, 0], pts[:, 1]), pts[:, 2]
+    bottom = z < 5
+    assert np.ptp(z[bottom & (r < 14)]) < 0.01 and np.ptp(z[bottom & (r > 18) & (r < 27)]) > 0.3
+    default = make_tin(tmp_path / "rings.stl", "--segments", "48").reshape(-1, 3)
+    assert np.ptp(default[(default[:, 2] < 5) & (np.hypot(default[:, 0], default[:, 1]) < 14), 2]) > 0.3
 
 
 def moved(spec, tin_mm: np.ndarray, key: str) -> tuple[np.ndarray, np.ndarray]:

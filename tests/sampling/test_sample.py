@@ -37,6 +37,26 @@ def test_10000_samples_respect_the_tables(setup):
             assert not any(p.keys.values()) and not any(p.displacement.values()) and not p.families
 
 
+def test_family_weights_draw_a_family_more_often_and_equal_weights_draw_as_before():
+    cfg = load_config("quick", {"generate.n": 40000, "deform.families": [1, 1]})
+    spec = load_spec()
+
+    def weighted(weights):
+        return spec.model_copy(update={"families": [f.model_copy(update={"weight": w})
+                                                    for f, w in zip(spec.families, weights)]})
+
+    n, first = len(spec.families), spec.families[0].name
+    equal, heavy = weighted([2.0] * n), weighted([4.0 * (n - 1)] + [1.0] * (n - 1))  # the first: 80 % of draws
+    plain = favoured = deformed = 0
+    for i in range(400):
+        p, q = sample_params(i, 1, cfg, spec, HDRIS), sample_params(i, 1, cfg, heavy, HDRIS)
+        assert sample_params(i, 1, cfg, equal, HDRIS) == p and sample_params(i, 1, cfg, heavy, HDRIS) == q
+        if p.deformed:
+            deformed += 1
+            plain, favoured = plain + (first in p.families), favoured + (first in q.families)
+    assert abs(plain / deformed - 1 / n) < 0.08 and abs(favoured / deformed - 0.8) < 0.08
+
+
 def test_labels_are_balanced_in_every_prefix():
     labels = [label_for(i, 0.5) for i in range(1000)]
     for n in range(2, 1000, 2):

@@ -64,7 +64,9 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
     lo, hi = d.families
     hi = min(hi, len(allowed))
     k = int(rng.integers(min(lo, hi), hi + 1))
-    chosen = sorted(rng.choice(allowed, size=k, replace=False).tolist())
+    weights = np.array([spec.families[f].weight for f in allowed])
+    p = None if (weights == weights[0]).all() else weights / weights.sum()  # equal weights: the uniform draw
+    chosen = sorted(rng.choice(allowed, size=k, replace=False, p=p).tolist())
     fam_w = rng.uniform(0.05, 1.0, size=k)
     draw_extent = float(rng.uniform(*d.extent))
     fam_w = fam_w / fam_w.sum() * draw_extent

@@ -62,8 +62,11 @@ class Key(StrictModel):
 
 
 class Family(StrictModel):
+    """Keys of one kind of damage; ``weight``: how often a deformed sample draws it against the others (1 each)."""
+
     name: str
     keys: list[Key]
+    weight: float = Field(1.0, gt=0, le=1000)
 
     @field_validator("keys")
     @classmethod
