@@ -20,8 +20,8 @@ BEAD_DEPTH, BEAD_WIDTH = 0.9, 2.2  # mm: how far a bead is rolled in, and its ha
 RECESS, COUNTERSINK = 3.0, 4.2  # mm: the end panel's and the countersink's depth behind the seam's face
 RING_HEIGHT = 0.5  # mm: how far the end panels' expansion rings stand proud
 # End panels: "rings", two rings spread over the panel; "flat", three rings in its outer third round a flat centre
-# that stands proud by a step (mm), as on many sanitary food-can ends: (rings, span of their radii, half-width mm, step)
-ENDS = {"rings": (2, (0.4, 0.75), 1.6, 0.0), "flat": (3, (0.7, 0.9), 1.2, 0.8)}
+# that stands proud by a step, as on many food-can ends: (rings, span of their radii, half-width mm, step mm, points)
+ENDS = {"rings": (2, (0.4, 0.75), 1.6, 0.0, 90), "flat": (3, (0.7, 0.9), 1.2, 0.8, 120)}
 
 
 def bead_profile(z: np.ndarray, height: float, beads: int) -> np.ndarray:
@@ -41,9 +41,9 @@ def end_profile(radius: float, ends: str = "rings") -> np.ndarray:
     chuck wall drops to the seam's face, the seam rounds over its outer edge and tucks back to the body wall."""
     body = radius - SEAM_OVERHANG
     inner = body - 4.5  # the seam's inner edge
-    count, span, width, step = ENDS[ends]
+    count, span, width, step, points = ENDS[ends]
     outer = inner - 3.0
-    panel_r = np.linspace(0.0, outer, 90 if ends == "rings" else 120)
+    panel_r = np.linspace(0.0, outer, points)
     ring_r = np.linspace(*span, count) * outer
     rings = sum(RING_HEIGHT * np.exp(-(((panel_r - c) / width) ** 2)) for c in ring_r)
     centre = step / (1 + np.exp((panel_r - 0.58 * outer) / 0.5))  # the flat centre's step (none on "rings")
