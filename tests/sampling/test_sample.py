@@ -57,6 +57,17 @@ def test_family_weights_draw_a_family_more_often_and_equal_weights_draw_as_befor
     assert abs(plain / deformed - 1 / n) < 0.08 and abs(favoured / deformed - 0.8) < 0.08
 
 
+def test_a_spec_without_weights_keeps_its_datasets_identity():
+    """Weights left at 1 leave the spec's digest as it was before families had weights (datasets stay current)."""
+    from deformsim.generate.identity import input_digests
+
+    cfg, spec = load_config("quick"), load_spec()
+    one = spec.model_copy(update={"families": [f.model_copy(update={"weight": 1.0}) for f in spec.families]})
+    two = spec.model_copy(update={"families": [spec.families[0].model_copy(update={"weight": 2.0}), *spec.families[1:]]})
+    assert "weight" not in spec.model_dump(mode="json")["families"][0]
+    assert input_digests(cfg, one)["spec"] == input_digests(cfg, spec)["spec"] != input_digests(cfg, two)["spec"]
+
+
 def test_labels_are_balanced_in_every_prefix():
     labels = [label_for(i, 0.5) for i in range(1000)]
     for n in range(2, 1000, 2):

@@ -12,7 +12,7 @@ import math
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import ConfigDict, Field, ValidationError, field_validator, model_serializer, model_validator
 
 from deformsim.errors import UserError
 from deformsim.schema import Range, StrictModel, check_range, check_unique, first_error, read_mapping, shown
@@ -67,6 +67,14 @@ class Family(StrictModel):
     name: str
     keys: list[Key]
     weight: float = Field(1.0, gt=0, le=1000)
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler) -> dict:
+        """The default weight is left out, so a spec without weights keeps its digest (and its datasets)."""
+        data = handler(self)
+        if self.weight == 1.0:
+            data.pop("weight", None)
+        return data
 
     @field_validator("keys")
     @classmethod
