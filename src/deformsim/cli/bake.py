@@ -22,8 +22,7 @@ def register(app: typer.Typer) -> None:
         `generate` bakes on first use when deform.sources uses the bank)."""
         from deformsim.bank.store import load_bank
 
-        given = {k: v for k, v in {"object.spec": file, "object.mesh": object_}.items() if v}
-        path = plain_engine(overrides=given).bake(force=force)
+        path = plain_engine(overrides={"object.spec": file, "object.mesh": object_}).bake(force=force)
         bank = load_bank(path)
         stats = bank.stats()
         scenarios = dict.fromkeys(name.rsplit("/", 1)[0] for name in bank.names)

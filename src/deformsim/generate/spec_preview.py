@@ -63,8 +63,8 @@ def render_preview(spec_path: Path | None, mesh: Path | None, out: Path, resolut
     small to see in a typical image of a run with config ``seen_with`` (default the quick preset) are warned about."""
     from deformsim.generate.worker_client import WorkerProcess
 
-    given = {k: v for k, v in {"object.spec": spec_path, "object.mesh": mesh}.items() if v}
-    overrides = {**FIXED_VIEW, **given, "generate.n": 1, "render.resolution": resolution, "render.samples": samples}
+    overrides = {**FIXED_VIEW, "object.spec": spec_path, "object.mesh": mesh, "generate.n": 1,
+                 "render.resolution": resolution, "render.samples": samples}
     spec = load_spec(spec_path)
     bank = bank and spec.simulation is not None
     if bank:
