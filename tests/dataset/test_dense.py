@@ -115,3 +115,18 @@ def test_scaled_fit_takes_out_a_change_of_size_along_the_axes_and_keeps_a_bulge(
     left = np.linalg.norm(rest @ a.T + t - bulged, axis=1)
     near = np.abs(rest[:, 2] - 0.8) < 0.05
     assert left[near].mean() > 5 * left[np.abs(rest[:, 2]) < 0.3].mean()
+
+
+def test_beyond_affine_leaves_nothing_of_a_part_moved_turned_or_resized_as_a_whole_and_keeps_a_local_dent():
+    rows, cols = np.mgrid[0:64, 0:64].astype(float)
+    mask = (rows - 32) ** 2 + (cols - 32) ** 2 < 24**2  # an end seen from above
+    theta, scale = np.radians(4), 1.03  # turned 4 degrees, 3 % larger, moved 5 px right and 3 px down
+    x, y = cols - 32, rows - 32
+    u = scale * (np.cos(theta) * x - np.sin(theta) * y) - x + 5
+    v = scale * (np.sin(theta) * x + np.cos(theta) * y) - y + 3
+    assert np.hypot(u, v)[mask].max() > 5  # what the old measure counted
+    assert dense.beyond_affine(u, v, mask).max() < 1e-9
+    dent = mask & ((rows - 10) ** 2 + (cols - 32) ** 2 < 4**2)  # the rim pushed 6 px inwards at one point
+    left = dense.beyond_affine(u, np.where(dent, v + 6, v), mask)
+    assert left[dent].min() > 5 and np.median(left[mask & ~dent]) < 0.2
+    assert not left[~mask].any()

@@ -59,9 +59,25 @@ def region_mask(deform_mm: np.ndarray, mask: np.ndarray, threshold_mm: float,
 
 def shown(across_px: np.ndarray, turn_deg: np.ndarray, min_across_px: float, min_turn_deg: float) -> np.ndarray:
     """Pixels whose displacement shows in the image (``render.region_visible``): moved across it (perpendicular to
-    the line of sight) by at least ``min_across_px`` pixels, or turned by at least ``min_turn_deg``. Movement along
-    the line of sight that barely turns the surface leaves the image as it was."""
+    the line of sight; with ``view_fit``, beyond the visible part's own affine motion, :func:`beyond_affine`) by at
+    least ``min_across_px`` pixels, or turned by at least ``min_turn_deg``. Movement along the line of sight that
+    barely turns the surface leaves the image as it was."""
     return (across_px >= min_across_px) | (turn_deg >= min_turn_deg)
+
+
+def beyond_affine(u: np.ndarray, v: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Per pixel, the length of the image motion (``u``, ``v``: pixels along the image's two axes) left after the
+    affine map of the image that best fits it over ``mask`` (least squares); 0 outside ``mask``. A visible part
+    moved, turned, tilted a little or resized as a whole leaves nothing: an intact part placed so looks the same."""
+    rows, cols = np.nonzero(mask)
+    out = np.zeros(mask.shape, dtype=np.float64)
+    if len(rows) < 3:
+        return out
+    design = np.column_stack([cols, rows, np.ones(len(rows))]).astype(np.float64)
+    motion = np.column_stack([u[mask], v[mask]]).astype(np.float64)
+    coef, *_ = np.linalg.lstsq(design, motion, rcond=None)
+    out[mask] = np.linalg.norm(motion - design @ coef, axis=1)
+    return out
 
 
 def vertex_normals(co: np.ndarray, tris: np.ndarray) -> np.ndarray:

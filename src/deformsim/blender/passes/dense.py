@@ -2,15 +2,15 @@
 
 The part's mesh carries a point attribute :data:`REST`: its rest shape, i.e. the Basis with the opening keys (tab,
 seal) applied at the sample's values, so openings never count as deformation, and placed by a rigid fit
-(:func:`deformsim.dataset.dense.rigid_fit`) where it matches the deformed part best, so that a bent or twisted
-part's rigid motion does not count either. Every material of the part gets AOV outputs: ``deform`` =
-|world(Object coords - rest)|, the displacement of the shaded point by the lattice and crinkle keys, and ``across``,
-its component across the image (perpendicular to the line of sight). A second point attribute :data:`BEND` holds
-in x, per vertex, the angle its normal turned from the fitted rest shape's (:func:`deformsim.dataset.dense.bend_deg`),
+(:func:`deformsim.dataset.dense.rigid_fit`) where it matches the deformed part best, so that a bent or twisted part's
+rigid motion does not count either. Every material of the part gets AOV outputs: ``deform`` = |world(Object coords -
+rest)|, the displacement of the shaded point by the lattice and crinkle keys, and ``across`` (colour), its component
+across the image (perpendicular to the line of sight) in camera axes. A second point attribute :data:`BEND` holds in
+x, per vertex, the angle its normal turned from the fitted rest shape's (:func:`deformsim.dataset.dense.bend_deg`),
 shown through the AOV ``bend``; it is a vector because a float point attribute moves Cycles' RGB render in the last
-bit. Under ``render.region_visible`` the rest shape also takes the part's size along its axes, and ``across``
-and ``bend`` shape the region map. After the RGBA render the render result (with the Depth, Normal and AOV passes)
-is saved once as multilayer EXR and turned into the maps of :mod:`deformsim.dataset.dense`.
+bit. Under ``render.region_visible`` the rest shape also takes the part's size along its axes, and ``across`` and
+``bend`` shape the region map. After the RGBA render the render result (with the Depth, Normal and AOV passes) is
+saved once as multilayer EXR and turned into the maps of :mod:`deformsim.dataset.dense`.
 """
 
 from __future__ import annotations
@@ -34,6 +34,7 @@ REST = "deformsim_rest"
 BEND = "deformsim_bend"
 AOV = "deform"
 ACROSS_AOV = "across"
+COLOR_AOVS = (ACROSS_AOV,)
 BEND_AOV = "bend"
 AOV_NODE = "DeformsimDeformAOV"
 MM = 1000.0  # scene units (metres) to mm
@@ -69,7 +70,7 @@ def prepare(scene, obj, spec: Spec, p: SampleParams, visible: bool = False) -> f
     for name in (AOV, ACROSS_AOV, BEND_AOV):
         if name not in layer.aovs:
             aov = layer.aovs.add()
-            aov.name, aov.type = name, "VALUE"
+            aov.name, aov.type = name, "COLOR" if name in COLOR_AOVS else "VALUE"
     for mat in obj.data.materials:
         if mat is not None and AOV_NODE not in mat.node_tree.nodes:
             _add_aov(mat)
@@ -116,7 +117,7 @@ def _add_aov(mat) -> None:
         out.aov_name = name
         if node_name:
             out.name = node_name
-        links.new(socket, out.inputs["Value"])
+        links.new(socket, out.inputs["Color" if name in COLOR_AOVS else "Value"])
 
     coord = nodes.new("ShaderNodeTexCoord")
     rest = nodes.new("ShaderNodeAttribute")
@@ -131,7 +132,10 @@ def _add_aov(mat) -> None:
     along.operation = "SCALE"
     links.new(view, along.inputs[0])
     links.new(math("DOT_PRODUCT", moved, view), along.inputs["Scale"])
-    aov(ACROSS_AOV, math("LENGTH", math("SUBTRACT", moved, along.outputs["Vector"])))
+    to_camera = nodes.new("ShaderNodeVectorTransform")
+    to_camera.vector_type, to_camera.convert_from, to_camera.convert_to = "VECTOR", "WORLD", "CAMERA"
+    links.new(math("SUBTRACT", moved, along.outputs["Vector"]), to_camera.inputs["Vector"])
+    aov(ACROSS_AOV, to_camera.outputs["Vector"])
     bend = nodes.new("ShaderNodeAttribute")
     bend.attribute_type, bend.attribute_name = "GEOMETRY", BEND
     angle = nodes.new("ShaderNodeSeparateXYZ")
@@ -177,9 +181,10 @@ def write_maps(scene, camera, alpha8: np.ndarray, layout: Layout, iid: str, thre
     if visible is not None:
         # a pixel's width in mm at the surface's depth (square images: the sensor's width spans the frame)
         px_mm = np.maximum(depth, 1e-6) * camera.data.sensor_width / (camera.data.lens * alpha8.shape[1])
-        across = np.where(mask, ch[f"{layer}.{ACROSS_AOV}.X"] / coverage, 0.0) * MM
+        across = [np.where(mask, ch[f"{layer}.{ACROSS_AOV}.{c}"] / coverage, 0.0) * MM / px_mm for c in "RGB"]
+        moved_px = maps.beyond_affine(across[0], across[1], mask) if visible.view_fit else np.linalg.norm(across, axis=0)
         turned = np.where(mask, ch[f"{layer}.{BEND_AOV}.X"] / coverage, 0.0)
-        shown = maps.shown(across / px_mm, turned, visible.across_px, visible.turn_deg)
+        shown = maps.shown(moved_px, turned, visible.across_px, visible.turn_deg)
     region = maps.region_mask(deform, mask, threshold_mm, shown)
     maps.save_png(layout.image("mask", iid), maps.mask_image(mask))
     maps.save_png(layout.image("depth", iid), maps.encode_u16(depth, 1.0))
