@@ -585,6 +585,10 @@ class TrainConfig(_Model):
         "split (bagging), saved as one that predicts their mean probability (they share the frozen layers, so their "
         "cached features too)"
     )
+    balance: bool = Field(
+        False, description="weigh both classes the same in the loss (each deformed image by the training split's "
+        "intact over deformed images): train.min_region leaves deformed images out, which tilts the model towards intact"
+    )
     min_region: float = Field(
         0.0, ge=0, lt=1, description="deformed images whose deformed region (render.dense's region map) covers less "
         "than this share of the visible part are left out of training and the synthetic test: their damage faces "
@@ -603,6 +607,8 @@ class TrainConfig(_Model):
     def _spatial(self) -> "TrainConfig":
         if self.target == "localise" and not BACKBONES[self.backbone].spatial:
             raise ValueError(f"train.target localise needs a convolutional backbone; {self.backbone} outputs tokens")
+        if self.balance and self.target != "label":
+            raise ValueError(f"train.balance applies to train.target label, not {self.target}")
         if self.ensemble > 1 and self.target != "label":
             raise ValueError(f"train.ensemble applies to train.target label, not {self.target}")
         return self

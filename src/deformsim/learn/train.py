@@ -105,10 +105,21 @@ def _out_of_bag(nets: list[DeformNet], inputs: _Inputs, val_rows: list[torch.Ten
     return {"members": len(nets), "val_loss": loss, "val_acc": acc, "n_val": len(held)}
 
 
-def _step(model: DeformNet, opt, z: torch.Tensor, target: torch.Tensor, cfg: TrainConfig) -> tuple[float, int]:
-    """One optimiser step; returns the summed loss and the number of correct predictions."""
+def _class_weight(target: torch.Tensor, cfg: TrainConfig) -> torch.Tensor | None:
+    """With ``train.balance``, the weight of a deformed image in the loss that makes both classes of ``target`` (the
+    training images' labels) weigh the same: intact images over deformed ones; None otherwise."""
+    deformed = float(target.sum())
+    if not cfg.balance or deformed == 0 or deformed == len(target):
+        return None
+    return torch.tensor((len(target) - deformed) / deformed, device=target.device)
+
+
+def _step(model: DeformNet, opt, z: torch.Tensor, target: torch.Tensor, cfg: TrainConfig,
+          pos_weight: torch.Tensor | None = None) -> tuple[float, int]:
+    """One optimiser step (deformed images weighted by ``pos_weight``); returns the summed loss and the number of
+    correct predictions."""
     logits = model.tail(z)
-    loss = nn.functional.binary_cross_entropy_with_logits(logits, target)
+    loss = nn.functional.binary_cross_entropy_with_logits(logits, target, pos_weight=pos_weight)
     opt.zero_grad()
     loss.backward()
     opt.step()
@@ -164,6 +175,7 @@ def _fit_label(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor,
     order = torch.Generator().manual_seed(cfg.seed)
     schedule = torch.optim.lr_scheduler.CosineAnnealingLR(opt, cfg.epochs) if cfg.schedule == "cosine" else None
     torch.manual_seed(cfg.seed)  # dropout and augmentation draw from here; a cache miss must not shift them
+    pos_weight = _class_weight(y[train_rows.to(y.device)], cfg)
     history = []
     with progress_bar(cfg.epochs, "epochs", progress) as bar:
         for epoch in range(1, cfg.epochs + 1):
@@ -173,7 +185,7 @@ def _fit_label(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor,
             for batch in train_rows[torch.randperm(len(train_rows), generator=order)].split(cfg.batch_size):
                 if cfg.feature_norm and len(batch) < 2:
                     continue  # batch statistics need two images
-                loss, right = _step(model, opt, inputs(batch, train=True), y[batch.to(device)], cfg)
+                loss, right = _step(model, opt, inputs(batch, train=True), y[batch.to(device)], cfg, pos_weight)
                 total += loss
                 correct += right
             if schedule is not None:
