@@ -68,6 +68,7 @@ PINNED = [
     ("quick", {"lighting.area_lights.count": [1, 2], "lighting.area_lights.kinds": ["ring"]}, "7ceab64c5c5c"),
     ("quick", {"deform.sources.bank": 1, "deform.sources.lattice": 0}, "4b914d230383"),
     ("quick", {"render.adaptive": True, "render.view_transform": "AgX", "render.look": "Punchy"}, "60c8ff527a2a"),
+    ("quick", {"render.region_visible": {"across_px": 3}}, "43f3bc1ebaf8"),
 ]
 
 

@@ -308,8 +308,8 @@ class VisibleRegionConfig(_Model):
         15.0, gt=0, lt=90, description="or where its surface turned by at least this angle, in degrees (15: a matte "
         "surface's shading changes by 3 %)"
     )
-    view_fit: bool = Field(
-        True, description="count movement across the image only beyond the affine map that best fits the whole "
+    view_fit: Annotated[bool, identity.WHEN_SET] = Field(
+        False, description="count movement across the image only beyond the affine map that best fits the whole "
         "visible part's (an end moved sideways or tilted as a whole, seen from above, looks intact); false: every "
         "movement across it"
     )

@@ -59,9 +59,9 @@ def runs(tmp_path_factory):
     off, off_replies = _render(root, "off", _config(False), [d, i])
     visible, visible_replies = _render(root, "visible", _config(True, **{"render.region_visible": {}}), [d, crushed])
     sharp = {"render.resolution": 192}  # the lid moves a few mm: at 64 px, under 2 px
-    fitted, _ = _render(root, "fitted", _config(True, **sharp, **{"render.region_visible": {}}), [tilted])
-    unfitted, _ = _render(root, "unfitted", _config(True, **sharp, **{"render.region_visible": {"view_fit": False}}),
-                          [tilted])
+    fitted, _ = _render(root, "fitted", _config(True, **sharp, **{"render.region_visible": {"view_fit": True}}),
+                        [tilted])
+    unfitted, _ = _render(root, "unfitted", _config(True, **sharp, **{"render.region_visible": {}}), [tilted])
     return {"on": on, "off": off, "visible": visible, "fitted": fitted, "unfitted": unfitted, "replies": on_replies,
             "off_replies": off_replies, "visible_replies": visible_replies, "samples": (d, i, c)}
 

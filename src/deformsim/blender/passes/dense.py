@@ -4,13 +4,14 @@ The part's mesh carries a point attribute :data:`REST`: its rest shape, i.e. the
 seal) applied at the sample's values, so openings never count as deformation, and placed by a rigid fit
 (:func:`deformsim.dataset.dense.rigid_fit`) where it matches the deformed part best, so that a bent or twisted part's
 rigid motion does not count either. Every material of the part gets AOV outputs: ``deform`` = |world(Object coords -
-rest)|, the displacement of the shaded point by the lattice and crinkle keys, and ``across`` (colour), its component
-across the image (perpendicular to the line of sight) in camera axes. A second point attribute :data:`BEND` holds in
-x, per vertex, the angle its normal turned from the fitted rest shape's (:func:`deformsim.dataset.dense.bend_deg`),
-shown through the AOV ``bend``; it is a vector because a float point attribute moves Cycles' RGB render in the last
-bit. Under ``render.region_visible`` the rest shape also takes the part's size along its axes, and ``across`` and
-``bend`` shape the region map. After the RGBA render the render result (with the Depth, Normal and AOV passes) is
-saved once as multilayer EXR and turned into the maps of :mod:`deformsim.dataset.dense`.
+rest)|, the displacement of the shaded point by the lattice and crinkle keys, ``across``, the length of its component
+across the image (perpendicular to the line of sight), and ``across_xy`` (colour), that component in camera axes. A
+second point attribute :data:`BEND` holds in x, per vertex, the angle its normal turned from the fitted rest shape's
+(:func:`deformsim.dataset.dense.bend_deg`), shown through the AOV ``bend``; it is a vector because a float point
+attribute moves Cycles' RGB render in the last bit. Under ``render.region_visible`` the rest shape also takes the
+part's size along its axes, and ``across`` (or with ``view_fit``, ``across_xy``) and ``bend`` shape the region map.
+After the RGBA render the render result (with the Depth, Normal and AOV passes) is saved once as multilayer EXR and
+turned into the maps of :mod:`deformsim.dataset.dense`.
 """
 
 from __future__ import annotations
@@ -34,7 +35,8 @@ REST = "deformsim_rest"
 BEND = "deformsim_bend"
 AOV = "deform"
 ACROSS_AOV = "across"
-COLOR_AOVS = (ACROSS_AOV,)
+ACROSS_XY_AOV = "across_xy"
+COLOR_AOVS = (ACROSS_XY_AOV,)
 BEND_AOV = "bend"
 AOV_NODE = "DeformsimDeformAOV"
 MM = 1000.0  # scene units (metres) to mm
@@ -67,7 +69,7 @@ def prepare(scene, obj, spec: Spec, p: SampleParams, visible: bool = False) -> f
     and :data:`BEND` gets each vertex's turn angle (``render.region_visible``; zero otherwise)."""
     layer = scene.view_layers[0]
     layer.use_pass_z = layer.use_pass_normal = True
-    for name in (AOV, ACROSS_AOV, BEND_AOV):
+    for name in (AOV, ACROSS_AOV, ACROSS_XY_AOV, BEND_AOV):
         if name not in layer.aovs:
             aov = layer.aovs.add()
             aov.name, aov.type = name, "COLOR" if name in COLOR_AOVS else "VALUE"
@@ -132,10 +134,12 @@ def _add_aov(mat) -> None:
     along.operation = "SCALE"
     links.new(view, along.inputs[0])
     links.new(math("DOT_PRODUCT", moved, view), along.inputs["Scale"])
+    across = math("SUBTRACT", moved, along.outputs["Vector"])
+    aov(ACROSS_AOV, math("LENGTH", across))
     to_camera = nodes.new("ShaderNodeVectorTransform")
     to_camera.vector_type, to_camera.convert_from, to_camera.convert_to = "VECTOR", "WORLD", "CAMERA"
-    links.new(math("SUBTRACT", moved, along.outputs["Vector"]), to_camera.inputs["Vector"])
-    aov(ACROSS_AOV, to_camera.outputs["Vector"])
+    links.new(across, to_camera.inputs["Vector"])
+    aov(ACROSS_XY_AOV, to_camera.outputs["Vector"])
     bend = nodes.new("ShaderNodeAttribute")
     bend.attribute_type, bend.attribute_name = "GEOMETRY", BEND
     angle = nodes.new("ShaderNodeSeparateXYZ")
@@ -181,8 +185,11 @@ def write_maps(scene, camera, alpha8: np.ndarray, layout: Layout, iid: str, thre
     if visible is not None:
         # a pixel's width in mm at the surface's depth (square images: the sensor's width spans the frame)
         px_mm = np.maximum(depth, 1e-6) * camera.data.sensor_width / (camera.data.lens * alpha8.shape[1])
-        across = [np.where(mask, ch[f"{layer}.{ACROSS_AOV}.{c}"] / coverage, 0.0) * MM / px_mm for c in "RGB"]
-        moved_px = maps.beyond_affine(across[0], across[1], mask) if visible.view_fit else np.linalg.norm(across, axis=0)
+        if visible.view_fit:
+            xy = [np.where(mask, ch[f"{layer}.{ACROSS_XY_AOV}.{c}"] / coverage, 0.0) * MM / px_mm for c in "RG"]
+            moved_px = maps.beyond_affine(*xy, mask)
+        else:
+            moved_px = np.where(mask, ch[f"{layer}.{ACROSS_AOV}.X"] / coverage, 0.0) * MM / px_mm
         turned = np.where(mask, ch[f"{layer}.{BEND_AOV}.X"] / coverage, 0.0)
         shown = maps.shown(moved_px, turned, visible.across_px, visible.turn_deg)
     region = maps.region_mask(deform, mask, threshold_mm, shown)
