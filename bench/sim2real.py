@@ -3,7 +3,7 @@
     python bench/sim2real.py [--quick] [--real DIR] [--backgrounds DIR] [--out DIR] [other options]
 
 Without --real / --backgrounds it uses ../shared/data/real_cans_dev and ../shared/data/backgrounds.
-Prints real accuracy, F1, precision, recall and synthetic held-out accuracy per variant as mean ± std over
+Prints real accuracy, F1, precision, recall, AUC and synthetic held-out accuracy per variant as mean ± std over
 background draws and training seeds, and writes OUT/results.json with every run.
 """
 

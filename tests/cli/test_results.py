@@ -60,8 +60,8 @@ def test_report_prints_the_summary(monkeypatch, tmp_path):
 
 
 def test_sim2real_prints_the_summary(monkeypatch, tmp_path):
-    row = {"n_runs": 2, **{f"{k}_{s}": 0.5 for k in ("accuracy", "f1", "precision", "recall", "synthetic_accuracy")
-                           for s in ("mean", "std")}}
+    row = {"n_runs": 2, **{f"{k}_{s}": 0.5 for k in ("accuracy", "f1", "precision", "recall", "auc",
+                                                     "synthetic_accuracy") for s in ("mean", "std")}}
     results = {"runs": [{}, {}], "seconds": 3.0, "variants": {"black": row}, "majority_baseline": 0.62}
     monkeypatch.setattr(Engine, "sim2real", lambda self, *a, **kw: results)
     res = invoke("bench", "sim2real", "--real", tmp_path, "--out", tmp_path / "b")
@@ -91,8 +91,8 @@ def test_sim2real_names_the_photos_most_often_wrong(monkeypatch, tmp_path):
     labels = [0, 0, 1] + [1] * 7
     runs = [{"variant": "[red]v", "data_seed": 0, "composite_seed": 0, "train_seed": k,
              "real_predictions": [0.9, 0.2 + 0.5 * k, 0.1] + [0.4] * 7} for k in range(2)]
-    row = {"n_runs": 2, **{f"{k}_{s}": 0.5 for k in ("accuracy", "f1", "precision", "recall", "synthetic_accuracy")
-                           for s in ("mean", "std")}}
+    row = {"n_runs": 2, **{f"{k}_{s}": 0.5 for k in ("accuracy", "f1", "precision", "recall", "auc",
+                                                     "synthetic_accuracy") for s in ("mean", "std")}}
     results = {"runs": runs, "seconds": 3.0, "variants": {"[red]v": row}, "majority_baseline": 0.8,
                "real_paths": paths, "real_labels": labels, "settings": {"train": {"threshold": 0.5}}}
     monkeypatch.setattr(Engine, "sim2real", lambda self, *a, **kw: results)

@@ -9,7 +9,7 @@ from deformsim.evaluate.benchmark import Plan, aggregate
 
 
 def _run(variant, acc, f1, prec, rec, synth):
-    return {"variant": variant, "real": {"accuracy": acc, "f1": f1, "precision": prec, "recall": rec},
+    return {"variant": variant, "real": {"accuracy": acc, "f1": f1, "precision": prec, "recall": rec, "auc": synth},
             "synthetic": {"accuracy": synth, "f1": synth}}
 
 
@@ -26,6 +26,7 @@ def test_aggregate_gives_mean_and_sample_std_per_variant():
     assert bg["precision_mean"] == pytest.approx(0.9) and bg["precision_std"] == pytest.approx(0.1)
     assert bg["recall_mean"] == pytest.approx(0.6) and bg["recall_std"] == pytest.approx(0.2)
     assert bg["synthetic_accuracy_mean"] == pytest.approx(0.95) and bg["synthetic_accuracy_std"] == pytest.approx(0.05)
+    assert bg["auc_mean"] == pytest.approx(0.95) and bg["auc_std"] == pytest.approx(0.05)
     assert s["black"]["n_runs"] == 1 and s["black"]["accuracy_std"] == 0.0
 
 

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from deformsim.errors import UserError
-from deformsim.evaluate.metrics import compute_metrics, confusion_matrix, wilson_interval
+from deformsim.evaluate.metrics import compute_metrics, confusion_matrix, roc_auc, wilson_interval
 
 
 def test_metrics_match_hand_computed_values():
@@ -84,3 +84,14 @@ def test_undefined_ratios_are_named():
     assert none_predicted["undefined"] == ["precision"] and none_predicted["interval"]["f1"] == [0.0, 0.0]
     assert compute_metrics([0, 1], [0.1, 0.9])["undefined"] == []
     assert compute_metrics(np.zeros(3, int), [0.1, 0.2, 0.3])["interval"]["f1"] is None
+
+
+def test_auc_ranks_whatever_the_threshold():
+    y = np.array([0, 0, 1, 1])
+    # every deformed image above every intact one, though all sit below the threshold: accuracy 0.5, AUC 1
+    m = compute_metrics(y, [0.1, 0.2, 0.3, 0.4])
+    assert m["accuracy"] == 0.5 and m["auc"] == 1.0
+    # by hand, pairs (deformed, intact): 0.3 > 0.1, 0.3 = 0.3 (half), 0.2 > 0.1, 0.2 < 0.3 -> 2.5 of 4
+    rows = np.array([[0.1, 0.3, 0.3, 0.2], [0.9, 0.8, 0.1, 0.2]])
+    assert roc_auc(rows, y == 1).tolist() == [0.625, 0.0]
+    assert compute_metrics([0, 0], [0.1, 0.9])["auc"] is None

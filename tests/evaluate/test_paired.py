@@ -30,7 +30,7 @@ def test_scores_agree_with_compute_metrics(photos):
     s = scores(prob, y, 0.5)
     for r in range(4):
         m = compute_metrics(y, prob[r], 0.5)
-        for k in ("accuracy", "f1", "precision", "recall"):
+        for k in ("accuracy", "f1", "precision", "recall", "auc"):
             assert s[k][r] == pytest.approx(m[k])
 
 

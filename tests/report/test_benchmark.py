@@ -16,7 +16,7 @@ LABELS = [0, 0, 1, 1]
 def _run(variant, composite_seed, train_seed, acc, f1, prob):
     return {"variant": variant, "data_seed": 0, "composite_seed": composite_seed, "train_seed": train_seed,
             "model": f"models/{variant}-{train_seed}",
-            "real": {"accuracy": acc, "f1": f1, "precision": 0.5, "recall": 0.75, "confusion": [[1, 1], [0, 2]]},
+            "real": {"accuracy": acc, "f1": f1, "precision": 0.5, "recall": 0.75, "auc": 0.8, "confusion": [[1, 1], [0, 2]]},
             "synthetic": {"accuracy": 0.9, "f1": 0.88}, "real_predictions": prob}
 
 

@@ -28,7 +28,7 @@ from deformsim.log import get_logger
 
 log = get_logger(__name__)
 
-REAL_METRICS = ("accuracy", "f1", "precision", "recall")
+REAL_METRICS = ("accuracy", "f1", "precision", "recall", "auc")
 RENDERED = ("black", "green")  # variants without a background draw
 
 

@@ -3,7 +3,8 @@
 A probability at or above the threshold predicts *deformed*. A ratio whose denominator is zero (precision
 with no positive prediction, recall with no deformed image, F1 when precision + recall is zero) is given as 0
 and named in ``undefined`` when nothing defines it (no positive prediction; no deformed image; neither), so a
-reader can show "-". ``interval`` holds 95 % intervals: Wilson's for accuracy, a seeded bootstrap over the
+reader can show "-". ``auc``, the area under the ROC curve, does not depend on the threshold (None without
+both classes). ``interval`` holds 95 % intervals: Wilson's for accuracy, a seeded bootstrap over the
 images for F1.
 """
 
@@ -48,6 +49,17 @@ def f1_interval(y_true, y_pred, seed: int = 0, n_boot: int = BOOTSTRAP) -> tuple
     return float(lo), float(hi)
 
 
+def roc_auc(prob: np.ndarray, deformed: np.ndarray) -> np.ndarray:
+    """Area under the ROC curve of each row of ``prob`` (..., images) against the bool labels ``deformed``: the chance
+    that a deformed image scores above an intact one (ties count half), whatever the threshold; NaN without both
+    classes."""
+    prob = np.asarray(prob, dtype=float)
+    pos, neg = prob[..., deformed][..., :, None], prob[..., ~deformed][..., None, :]
+    if pos.shape[-2] == 0 or neg.shape[-1] == 0:
+        return np.full(prob.shape[:-1], np.nan)
+    return (pos > neg).mean((-2, -1)) + 0.5 * (pos == neg).mean((-2, -1))
+
+
 def _check(y_true, prob, threshold: float) -> tuple[np.ndarray, np.ndarray]:
     y = np.asarray(y_true)
     p = np.asarray(prob, dtype=float)
@@ -90,6 +102,7 @@ def compute_metrics(y_true, prob, threshold: float = 0.5, seed: int = 0) -> dict
         "precision": precision,
         "recall": recall,
         "f1": _ratio(2 * precision * recall, precision + recall),
+        "auc": None if np.isnan(auc := float(roc_auc(p, y == 1))) else auc,
         "undefined": [k for k, den in (("precision", tp + fp), ("recall", tp + fn), ("f1", tp + fp + fn)) if not den],
         "interval": {"accuracy": list(wilson_interval(tp + tn, int(y.size))), "f1": None if f1 is None else list(f1)},
         "confusion": {

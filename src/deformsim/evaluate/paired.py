@@ -15,14 +15,15 @@ from pathlib import Path
 import numpy as np
 
 from deformsim.errors import UserError
+from deformsim.evaluate.metrics import roc_auc
 
-METRICS = ("accuracy", "f1", "precision", "recall")
+METRICS = ("accuracy", "f1", "precision", "recall", "auc")
 BOOTSTRAP = 2000
 
 
 def scores(prob: np.ndarray, y: np.ndarray, threshold: float) -> dict[str, np.ndarray]:
-    """Per row of ``prob`` (runs x photos): accuracy, F1, precision and recall (a 0/0 ratio is 0, as in
-    :func:`deformsim.evaluate.metrics.compute_metrics`)."""
+    """Per row of ``prob`` (runs x photos): accuracy, F1, precision, recall (a 0/0 ratio is 0, as in
+    :func:`deformsim.evaluate.metrics.compute_metrics`) and the area under the ROC curve (NaN without both classes)."""
     pred = prob >= threshold
     pos = y.astype(bool)
     tp, fp = (pred & pos).sum(-1), (pred & ~pos).sum(-1)
@@ -32,7 +33,7 @@ def scores(prob: np.ndarray, y: np.ndarray, threshold: float) -> dict[str, np.nd
         return np.where(den > 0, num / np.maximum(den, 1), 0.0)
 
     return {"accuracy": (pred == pos).mean(-1), "f1": ratio(2 * tp, 2 * tp + fp + fn),
-            "precision": ratio(tp, tp + fp), "recall": ratio(tp, tp + fn)}
+            "precision": ratio(tp, tp + fp), "recall": ratio(tp, tp + fn), "auc": roc_auc(prob, pos)}
 
 
 def _draw(run: dict) -> tuple:
@@ -119,7 +120,7 @@ def _interval(new: np.ndarray, base: np.ndarray, y: np.ndarray, threshold: float
             boot[k][b] = (s_new[k] - s_base[k]).mean()
     out = {}
     for k in METRICS:
-        lo, hi = np.percentile(boot[k], [2.5, 97.5])
+        lo, hi = np.nanpercentile(boot[k], [2.5, 97.5])  # NaN: a resample of the photos that lacks a class
         out[k] = {"diff": observed[k], "low": float(lo), "high": float(hi), "clears": bool(lo > 0 or hi < 0)}
     return out
 

@@ -17,8 +17,10 @@ from deformsim.report.html import CSS
 from deformsim.report.predictions import wrong_table
 
 METRICS = (("accuracy", "real accuracy"), ("f1", "real F1"), ("precision", "real precision"),
-           ("recall", "real recall"), ("synthetic_accuracy", "synthetic accuracy"), ("synthetic_f1", "synthetic F1"))
-PLOTTED = 5  # the bar chart leaves out synthetic F1
+           ("recall", "real recall"), ("auc", "real AUC"), ("synthetic_accuracy", "synthetic accuracy"),
+           ("synthetic_f1", "synthetic F1"))
+REAL = len(METRICS) - 2  # the real-photo metrics come first
+PLOTTED = len(METRICS) - 1  # the bar chart leaves out synthetic F1
 EXTRA_CSS = ".t2 td{white-space:nowrap}.runs{font-size:13px}"
 
 
@@ -76,9 +78,9 @@ def _ensembles_table(results: dict) -> str:
     if not ens:
         return ""
     rows = "".join(f"<tr><td><b>{escape(v)}</b></td><td>{e['n_draws']} x {e['members']}</td>"
-                   + "".join(f"<td>{_pm(e[f'{k}_mean'], e[f'{k}_std'])}</td>" for k, _ in METRICS[:4]) + "</tr>"
+                   + "".join(f"<td>{_pm(e[f'{k}_mean'], e[f'{k}_std'])}</td>" for k, _ in METRICS[:REAL]) + "</tr>"
                    for v, e in ens.items())
-    head = "".join(f"<th>{label}</th>" for _, label in METRICS[:4])
+    head = "".join(f"<th>{label}</th>" for _, label in METRICS[:REAL])
     return ("<h2>Ensembles of the training seeds</h2><p class=note>Percent. Each draw (data and background seed) "
             "averages the probabilities of its training seeds' models into one prediction; mean ± std over the "
             f'draws.</p><table class="t2"><tr><th>Trained on</th><th>draws x seeds</th>{head}</tr>{rows}</table>')
@@ -97,9 +99,9 @@ def _baseline_table(results: dict) -> str:
             cells = "".join(
                 f"<td>{'<b>' if d['clears'] else ''}{100 * d['diff']:+.1f} ({100 * d['low']:+.1f} to "
                 f"{100 * d['high']:+.1f}){'</b>' if d['clears'] else ''}</td>"
-                for d in (c[part][k] for k, _ in METRICS[:4]))
+                for d in (c[part][k] for k, _ in METRICS[:REAL]))
             rows.append(f"<tr><td><b>{escape(v)}</b>, {name}</td><td>{c['pairs']}</td>{cells}</tr>")
-    head = "".join(f"<th>{label}</th>" for _, label in METRICS[:4])
+    head = "".join(f"<th>{label}</th>" for _, label in METRICS[:REAL])
     return (f"<h2>Difference to the baseline</h2><p class=note>Points, against {escape(str(base['results']))}, on the "
             "same photos: the mean over paired runs (same variant and seeds) and its 95 % interval from resampling "
             "the photos and the pairs; bold where the interval excludes zero.</p>"
@@ -116,8 +118,8 @@ def _bars(results: dict) -> str:
 
 def _runs_table(results: dict, labels: list[int] | None) -> str:
     head = ("<tr><th>Variant</th><th>data seed</th><th>background seed</th><th>train seed</th>"
-            + "".join(f"<th>{label}</th>" for _, label in METRICS[:4]) + "<th>TN · FP · FN · TP</th>"
-            + "".join(f"<th>{label}</th>" for _, label in METRICS[4:]) + ("<th>ECE</th>" if labels else "") + "</tr>")
+            + "".join(f"<th>{label}</th>" for _, label in METRICS[:REAL]) + "<th>TN · FP · FN · TP</th>"
+            + "".join(f"<th>{label}</th>" for _, label in METRICS[REAL:]) + ("<th>ECE</th>" if labels else "") + "</tr>")
     rows = []
     for r in results["runs"]:
         seeds = "".join(f"<td>{'—' if r[k] is None else r[k]}</td>" for k in ("data_seed", "composite_seed", "train_seed"))
@@ -125,7 +127,7 @@ def _runs_table(results: dict, labels: list[int] | None) -> str:
         (tn, fp), (fn, tp) = r["real"]["confusion"]
         ece = f"<td>{reliability(labels, r['real_predictions'])['ece']:.3f}</td>" if labels else ""
         rows.append(f"<tr title=\"{escape(str(r.get('model', '')))}\"><td>{escape(r['variant'])}</td>{seeds}"
-                    f"{''.join(scores[:4])}<td>{tn} · {fp} · {fn} · {tp}</td>{''.join(scores[4:])}{ece}</tr>")
+                    f"{''.join(scores[:REAL])}<td>{tn} · {fp} · {fn} · {tp}</td>{''.join(scores[REAL:])}{ece}</tr>")
     return f'<table class="t2 runs">{head}{"".join(rows)}</table>'
 
 
