@@ -79,16 +79,18 @@ def _often_wrong(results: dict) -> tuple[str, ...]:
 def sim2real_summary(results: dict, report: Path) -> None:
     """Print the sim-to-real benchmark's ``results`` (mean ± std over its runs), the photos most often wrong and
     where its report is."""
+    from deformsim.evaluate.paired import METRICS
+
     table = Table(title=f"Real-photo results over {len(results['runs'])} runs (mean ± std)", header_style="bold")
     for col in ("trained on", "runs", "accuracy", "F1", "precision", "recall", "AUC", "synthetic accuracy",
                 "majority class"):
         table.add_column(col, justify="left" if col == "trained on" else "right")
     for variant, r in results["variants"].items():
-        cells = _spreads(r, ("accuracy", "f1", "precision", "recall", "auc", "synthetic_accuracy"))
+        cells = _spreads(r, (*METRICS, "synthetic_accuracy"))
         table.add_row(variant, str(r["n_runs"]), *cells, _share(results["majority_baseline"]))
         e = (results.get("ensembles") or {}).get(variant)
         if e:
-            cells = _spreads(e, ("accuracy", "f1", "precision", "recall", "auc"))
+            cells = _spreads(e, METRICS)
             table.add_row(f"{variant}, ensemble of {e['members']} seeds", str(e["n_draws"]), *cells, "", "")
     print_table(table, report, _often_wrong(results) if "real_labels" in results else ())
     if results.get("baseline"):
@@ -103,6 +105,8 @@ def _difference(d: dict) -> str:
 def baseline_summary(results: dict) -> None:
     """Print the paired differences of ``results`` to its baseline: per variant (and its ensemble), each metric's
     mean difference in points with its 95 % interval, bold where the interval excludes zero."""
+    from deformsim.evaluate.paired import METRICS
+
     table = Table(title=f"Difference to {results['baseline']['results']} (points, 95 % interval over photos and seeds)",
                   header_style="bold")
     for col in ("trained on", "pairs", "accuracy", "F1", "precision", "recall", "AUC", "verdict"):
@@ -113,8 +117,7 @@ def baseline_summary(results: dict) -> None:
             d = c[part]
             verdict = ("beats the baseline" if d["accuracy"]["low"] > 0 else "below the baseline"
                        if d["accuracy"]["high"] < 0 else "within the noise")
-            table.add_row(name, str(c["pairs"]), *(_difference(d[k]) for k in ("accuracy", "f1", "precision", "recall",
-                                                                                "auc")),
+            table.add_row(name, str(c["pairs"]), *(_difference(d[k]) for k in METRICS),
                           f"accuracy {verdict}")
     print_table(table)
 

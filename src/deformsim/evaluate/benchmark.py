@@ -24,11 +24,11 @@ import numpy as np
 from deformsim.atomic import write_json
 from deformsim.config import Config
 from deformsim.errors import UserError
+from deformsim.evaluate.paired import METRICS as REAL_METRICS
 from deformsim.log import get_logger
 
 log = get_logger(__name__)
 
-REAL_METRICS = ("accuracy", "f1", "precision", "recall", "auc")
 RENDERED = ("black", "green")  # variants without a background draw
 
 
