@@ -449,6 +449,11 @@ class GenerateConfig(_Model):
     )
     seed: Seed = Field(0, description="seed of every random draw of every sample")
     intact_fraction: float = Field(0.5, ge=0, le=1, description="share of intact samples, spread evenly over them")
+    paired: Annotated[bool, identity.WHEN_SET] = Field(
+        False, description="samples in twins: each deformed sample and the intact one after it share every draw but "
+        "the damage (cameras, lights, surface, material, shape and each image's composite), so nothing else tells the "
+        "classes apart; needs intact_fraction 0.5"
+    )
     workers: Annotated[int, identity.NEVER] = Field(0, ge=0, le=1024, description="render processes; 0 = automatic")
     recycle_every: Annotated[int, identity.NEVER] = Field(
         200, ge=1, le=10**6, description="restart a worker after this many images"
@@ -634,6 +639,9 @@ class Config(_Model):
         views = len(self.camera.azimuth_quadrants)
         if self.generate.n % views:
             raise ValueError(f"generate.n={self.generate.n} must be a multiple of the {views} cameras")
+        if self.generate.paired and self.generate.intact_fraction != 0.5:
+            raise ValueError(f"generate.paired needs generate.intact_fraction 0.5 (one intact twin per deformed "
+                             f"sample), not {self.generate.intact_fraction:g}")
         if self.render.region_visible and not self.render.dense:
             raise ValueError("render.region_visible needs render.dense: true (it shapes the region maps)")
         if self.train.min_region and not self.render.dense:

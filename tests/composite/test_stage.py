@@ -249,3 +249,25 @@ def test_a_variant_moved_aside_by_a_killed_swap_is_put_back(tmp_path):
     sweep_staging(variants)
     assert sorted(p.name for p in variants.iterdir()) == sorted(["comp", live.parent.name])
     assert (variants / "comp" / "manifest.parquet").read_text() == "the old variant"
+
+
+def test_paired_twins_share_each_images_composite_draws(dataset, tmp_path, backgrounds_dir):
+    """generate.paired: an intact image is composited with its deformed twin's background, framing and camera
+    effects (manifest column ``pair``); without the column each image draws its own."""
+    cfg = CompositeConfig(backgrounds=_photos(tmp_path, backgrounds_dir, 6), effects={}, object_fill=(0.5, 0.9))
+    cols = ["background", "bg_x", "bg_y", "bg_scale", "bg_flip", "fx_exposure", "fx_noise"]
+
+    def twins(variant):
+        df = pd.read_parquet(variant / "manifest.parquet").set_index("id")
+        ids = [i for i in df.index if i.startswith("000001_")]
+        return df.loc[ids, cols].reset_index(drop=True), df.loc[[i.replace("000001", "000000") for i in ids],
+                                                                   cols].reset_index(drop=True)
+
+    intact, damaged = twins(composite(dataset, cfg, "own", seed=4, progress=False))
+    assert not intact.equals(damaged)
+    manifest = dataset / "manifest.parquet"
+    df = pd.read_parquet(manifest)
+    assert sorted(df.groupby("sample")["y"].first()) == [0, 1]  # sample 0 and its intact twin, sample 1
+    df.assign(pair=0).to_parquet(manifest, index=False)
+    intact, damaged = twins(composite(dataset, cfg, "paired", seed=4, progress=False))
+    pd.testing.assert_frame_equal(intact, damaged)

@@ -93,3 +93,11 @@ def test_scene_images_are_needed_for_resume(tmp_path):
     assert read_record(layout, 3) is not None
     layout.image("surface", image_id(3, 0)).unlink()
     assert read_record(layout, 3) is None
+
+
+def test_a_pair_column_only_in_paired_datasets(tmp_path):
+    cfg = load_config("quick", {"camera.azimuth_quadrants": [(20, 70), (200, 250)], "generate.paired": True})
+    rows = rows_for(sample_params(3, 0, cfg, load_spec(None), list_hdris(None)), Layout(tmp_path), Rendered(3, [1.0, 1.0]))
+    plain = rows_for(_sample(), Layout(tmp_path), Rendered(3, [1.0, 1.0]))
+    assert [r["pair"] for r in rows] == [2, 2] and set(rows[0]) - set(plain[0]) == {"pair"}
+    assert rows[0]["label"] == "intact" and "pair" not in plain[0]

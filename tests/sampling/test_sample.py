@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from deformsim.config import load_config
+from deformsim.errors import UserError
 from deformsim.sampling import SampleParams, label_for, sample_params
 from deformsim.spec.model import load_spec
 
@@ -249,3 +250,27 @@ def test_fill_views_draw_each_cameras_fill_from_its_own_range():
     assert all(sample_params(i, 0, one, spec, hdris) == sample_params(i, 0, same, spec, hdris) for i in range(4))
     with pytest.raises(UserError, match="camera.fill_views has 3 ranges for 4 cameras"):
         load_config("quick", {"camera.fill_views": views[:3]})
+
+
+def test_paired_twins_share_every_draw_but_the_damage():
+    """generate.paired: sample 2k is deformed, 2k + 1 intact in the same scene (cameras, lights, surface, material,
+    shape), so no scene setting differs between the classes; off, every sample draws its own."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2] / "examples" / "tin"
+    cfg = load_config(root / "config.yaml", {"object.spec": str(root / "spec.yaml"), "generate.paired": True})
+    spec = load_spec(root / "spec.yaml")
+    for k in range(20):
+        damaged, twin = sample_params(2 * k, 3, cfg, spec, HDRIS), sample_params(2 * k + 1, 3, cfg, spec, HDRIS)
+        assert damaged.deformed and not twin.deformed and damaged.pair == twin.pair == 2 * k
+        assert any(damaged.keys.values()) and not any(twin.keys.values())
+        differ = {f for f in SampleParams.__dataclass_fields__ if getattr(damaged, f) != getattr(twin, f)}
+        assert differ <= {"index", "label", "families", "keys", "displacement", "extent", "bank", "bank_amount"}
+        assert damaged.surface is not None and damaged.material is not None and damaged.lights
+    unpaired = load_config(root / "config.yaml", {"object.spec": str(root / "spec.yaml")})
+    a, b = sample_params(0, 3, unpaired, spec, HDRIS), sample_params(1, 3, unpaired, spec, HDRIS)
+    assert a.pair is None and a.cameras != b.cameras and a.surface != b.surface
+    assert sample_params(0, 3, unpaired, spec, HDRIS) == sample_params(0, 3, cfg.model_copy(
+        update={"generate": cfg.generate.model_copy(update={"paired": False})}), spec, HDRIS)
+    with pytest.raises(UserError, match="paired needs generate.intact_fraction 0.5.*not 0.3"):
+        load_config("quick", {"generate.paired": True, "generate.intact_fraction": 0.3})

@@ -44,7 +44,7 @@ from deformsim.composite.framing import frame_matrix, warp
 from deformsim.composite.maps import MAP_KINDS, move_maps, read_maps, write_maps
 from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inrange_matte
 from deformsim.config import CompositeConfig
-from deformsim.dataset.layout import RENDER_KINDS, SHADOW_KIND, SURFACE_KIND, Layout
+from deformsim.dataset.layout import RENDER_KINDS, SHADOW_KIND, SURFACE_KIND, Layout, image_id
 from deformsim.dataset.manifest import read_manifest
 from deformsim.dataset.variants import VARIANT_MANIFEST
 from deformsim.errors import UserError
@@ -86,9 +86,10 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
     photos = [str(p) for p in scan_backgrounds(cfg.backgrounds)] if cfg.backgrounds else []
     source = "rgba" if cfg.matte == "alpha" else "green"
     jobs = _jobs(layout, manifest, source, shadows=cfg.matte == "alpha", surfaces=cfg.surface > 0)
+    twins = twin_ids(manifest)
     if photos and cfg.balance_backgrounds:
         first = balanced_photos(manifest["id"].tolist(), manifest["y"].tolist(), len(photos), seed)
-        jobs = [(*job, first[job[0]]) for job in jobs]
+        jobs = [(*job, first[twins.get(job[0], job[0])]) for job in jobs]
 
     variants = layout.root / "variants"
     sweep_staging(variants)
@@ -98,7 +99,8 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
     try:
         (tmp / "images").mkdir(parents=True)
         state = {"cfg": cfg.model_dump(), "seed": seed, "photos": photos, "out": str(tmp / "images"),
-                 "prefix": f"variants/{name}/images", "maps_out": str(tmp), "maps_prefix": f"variants/{name}"}
+                 "prefix": f"variants/{name}/images", "maps_out": str(tmp), "maps_prefix": f"variants/{name}",
+                 "twins": twins}
         rows, bad = _run(jobs, state, worker_count(len(jobs), cfg.workers, most=8, jobs_each=16), progress)
         for path, reason in sorted(bad.items()):
             warn_skipped(Path(path), reason)
@@ -127,6 +129,21 @@ def sweep_staging(variants: Path) -> None:
         if (folder / ".old").is_dir() and len(new) == 1 and not (variants / new[0].name).exists():
             os.replace(folder / ".old", variants / new[0].name)
         shutil.rmtree(folder, ignore_errors=True)
+
+
+def twin_ids(manifest: pd.DataFrame) -> dict[str, str]:
+    """Image id -> the id of the image whose composite draws it shares: its deformed twin's, in a dataset drawn with
+    ``generate.paired`` (column ``pair``); empty otherwise."""
+    if "pair" not in manifest.columns:
+        return {}
+    twins = {iid: image_id(int(pair), int(camera)) for iid, pair, camera in
+             zip(manifest["id"], manifest["pair"], manifest["camera"])}
+    return {iid: twin for iid, twin in twins.items() if twin != iid}
+
+
+def _draws_of(iid: str) -> str:
+    """The image id whose draws image ``iid`` makes (:func:`twin_ids`)."""
+    return _STATE.get("twins", {}).get(iid, iid)
 
 
 def balanced_photos(ids: list[str], labels: list[int], n_photos: int, seed: int) -> dict[str, int]:
@@ -236,8 +253,8 @@ def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | 
     """Matte, background and composite one image (worker side); writes it (and its moved maps) and returns its
     manifest row. ``shadow``: the part's shadow map (alpha matte only); ``scene``: the rendered surface scene,
     shown whole instead with probability ``composite.surface``."""
-    cfg, rng = _STATE["cfg"], stream("image", _STATE["seed"], stable_int(iid))
-    if scene is not None and use_surface(_STATE["seed"], iid, cfg.surface):
+    cfg, rng = _STATE["cfg"], stream("image", _STATE["seed"], stable_int(_draws_of(iid)))
+    if scene is not None and use_surface(_STATE["seed"], _draws_of(iid), cfg.surface):
         return _surface_one(iid, scene, exact, maps, rng, cfg)
     if cfg.matte == "alpha":
         alpha, fg = alpha_matte(_read(src, cv2.IMREAD_UNCHANGED))
@@ -255,7 +272,7 @@ def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | 
     shade = np.clip(shade, 0, 1) if shade is not None else None
     bg = bg.astype(np.float32)
     if shade is not None:
-        strength = shadow_strength(_STATE["seed"], iid, cfg.shadow_strength)
+        strength = shadow_strength(_STATE["seed"], _draws_of(iid), cfg.shadow_strength)
         bg = bg * (1.0 - strength * shade)[..., None]
         info["shadow_strength"] = strength
     out = fg + (1.0 - alpha)[..., None] * bg
@@ -286,7 +303,7 @@ def _move_part(iid: str, alpha: np.ndarray, layers: list, dense: dict | None, rn
         m, frame = frame_matrix(alpha, cfg.object_fill, cfg.fill_offset, rng)
         layers = [warp(x, m) if x is not None else None for x in layers]
         info.update(frame)
-    flip = part_flip(_STATE["seed"], iid, cfg.flip_part)
+    flip = part_flip(_STATE["seed"], _draws_of(iid), cfg.flip_part)
     if flip:
         layers = [x[:, ::-1] if x is not None else None for x in layers]
     info["part_flip"] = flip

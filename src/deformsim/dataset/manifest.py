@@ -37,6 +37,7 @@ def rows_for(p: SampleParams, layout: Layout, rendered: Rendered, camera_scale: 
             "label": p.label,
             "y": int(p.deformed),
             "seed": p.seed,
+            **({"pair": p.pair} if p.pair is not None else {}),
             "families": ",".join(p.families),
             "extent": p.extent,
             "bank": p.bank,

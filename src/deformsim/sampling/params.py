@@ -151,6 +151,7 @@ class SampleParams(Record):
     surface: SurfaceParams | None = None  # render.surface: the ground the part rests on; None = no surface scene
     shape: ShapeParams | None = optional(None)  # object.shapes: the part's drawn shape; None = as built
     appearance: AppearanceParams | None = optional(None)  # render.appearance: artwork and finish; None = off
+    pair: int | None = optional(None)  # generate.paired: the deformed twin whose draws (all but the damage) it shares
 
     @property
     def deformed(self) -> bool:

@@ -51,8 +51,9 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
     each listed here when None and the config uses them)."""
     if not hdris:
         raise ValueError("no HDRI available")
-    rng = stream("sample", seed, index)
     label = label_for(index, cfg.generate.intact_fraction)
+    pair = index - index % 2 if cfg.generate.paired else index  # the twins 2k (deformed) and 2k + 1 (intact)
+    rng = stream("sample", seed, pair)
     keys = {k: 0.0 for k in spec.key_names}
     disp = {t: 0.0 for t in spec.texture_names}
     families: tuple[str, ...] = ()
@@ -75,7 +76,7 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
     disp_scale = float(rng.uniform(*d.displacement))
     bank, bank_amount = "", 0.0
     if label == "deformed":
-        source, bank, bank_amount = draw_source(index, seed, cfg, spec)
+        source, bank, bank_amount = draw_source(pair, seed, cfg, spec)
         if source != "bank":
             families = tuple(spec.families[f].name for f in chosen)
             extent = draw_extent
@@ -121,9 +122,9 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
     if spec.material is not None:
         material = draw_finish(rng, spec.material)
         if spec.material.regions:
-            regions = stream("regions", seed, index)
+            regions = stream("regions", seed, pair)
             material = replace(material, regions=tuple(draw_finish(regions, r) for r in spec.material.regions))
-        material = draw_prints(index, seed, spec.material, material)
+        material = draw_prints(pair, seed, spec.material, material)
 
     pose_tilt = float(rng.uniform(*cfg.pose.tilt))
     pose_axis = float(rng.uniform(0, 360))
@@ -142,7 +143,7 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
         hdri=hdri,
         hdri_rotation=rotation,
         hdri_strength=strength,
-        cameras=draw_framing(index, seed, cfg, cameras),
+        cameras=draw_framing(pair, seed, cfg, cameras),
         design=design,
         material=material,
         extent=extent,
@@ -150,9 +151,10 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
         pose_axis=pose_axis,
         bank=bank,
         bank_amount=bank_amount,
-        drop_rotation=draw_drop(index, seed, cfg.pose.drop_upright) if cfg.pose.mode == "drop" else (),
-        lights=draw_lights(index, seed, cfg, cameras),
-        surface=draw_surface(index, seed, cfg, photos),
-        shape=draw_shape(index, seed, cfg, spec),
-        appearance=draw_appearance(index, seed, cfg, spec, artwork),
+        drop_rotation=draw_drop(pair, seed, cfg.pose.drop_upright) if cfg.pose.mode == "drop" else (),
+        lights=draw_lights(pair, seed, cfg, cameras),
+        surface=draw_surface(pair, seed, cfg, photos),
+        shape=draw_shape(pair, seed, cfg, spec),
+        appearance=draw_appearance(pair, seed, cfg, spec, artwork),
+        pair=pair if cfg.generate.paired else None,
     )
