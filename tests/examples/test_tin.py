@@ -160,3 +160,6 @@ def test_the_example_runs_end_to_end(tmp_path):
     assert len(df) == 16 and df.surface.notna().all() and (df.pose_tilt == 0).all()
     top = df[df.camera == 3]
     assert (top.cam_polar < 10).all() and (df[df.camera < 3].cam_polar > 70).all()
+    twins = df.groupby(["pair", "camera"])  # each dented tin and its intact twin: one scene, two labels
+    assert (twins.y.nunique() == 2).all() and (twins.cam_azimuth.nunique() == 1).all()
+    assert (twins.surface_params.nunique() == 1).all() and (twins.material.nunique() == 1).all()
