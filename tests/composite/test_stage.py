@@ -251,10 +251,12 @@ def test_a_variant_moved_aside_by_a_killed_swap_is_put_back(tmp_path):
     assert (variants / "comp" / "manifest.parquet").read_text() == "the old variant"
 
 
-def test_paired_twins_share_each_images_composite_draws(dataset, tmp_path, backgrounds_dir):
+@pytest.mark.parametrize("balance", [False, True])
+def test_paired_twins_share_each_images_composite_draws(dataset, tmp_path, backgrounds_dir, balance):
     """generate.paired: an intact image is composited with its deformed twin's background, framing and camera
-    effects (manifest column ``pair``); without the column each image draws its own."""
-    cfg = CompositeConfig(backgrounds=_photos(tmp_path, backgrounds_dir, 6), effects={}, object_fill=(0.5, 0.9))
+    effects (manifest column ``pair``), balanced backgrounds too; without the column each image draws its own."""
+    cfg = CompositeConfig(backgrounds=_photos(tmp_path, backgrounds_dir, 6), effects={}, object_fill=(0.5, 0.9),
+                          balance_backgrounds=balance)
     cols = ["background", "bg_x", "bg_y", "bg_scale", "bg_flip", "fx_exposure", "fx_noise"]
 
     def twins(variant):
