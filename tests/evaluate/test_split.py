@@ -44,3 +44,20 @@ def test_split_rejects_a_sample_with_mixed_labels():
     t.loc[0, "y"] = 1
     with pytest.raises(UserError, match="sample 0"):
         grouped_split(t, 0.8, seed=0)
+
+
+
+def test_twins_stay_together_and_unpaired_splits_are_as_before():
+    """generate.paired: a dented object and its intact twin share one scene, so a twin on each side would test on a
+    scene seen in training with the other label; the split keeps them together, and splits lone samples as before."""
+    from deformsim.dataset.tables import split
+
+    t = table(20, 20)
+    assert sorted(set(t.iloc[split(t, 0.8, 3)[1]]["sample"])) == [4, 5, 7, 19, 21, 30, 35, 36]  # as before twins
+    t["pair"] = t["sample"] % 20  # samples s and s + 20: twins
+    t = t[(t["sample"] != 25) | t["id"].str.endswith("c0")]  # twin 25 lost 3 of its views (train.min_region)
+    t = t[t["sample"] != 7].reset_index(drop=True)  # twin 7 lost all of them: its pair holds one class
+    train, test = grouped_split(t, 0.8, seed=3)
+    assert set(train["pair"]).isdisjoint(test["pair"]) and len(train) + len(test) == len(t)
+    assert test["pair"].nunique() == 4 and 7 in set(train["pair"])  # 19 twins: 4 held out; a lone pair trains
+    assert (test.groupby("pair")["y"].nunique() == 2).all()

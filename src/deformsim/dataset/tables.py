@@ -69,14 +69,20 @@ def split(table: pd.DataFrame, fraction: float, seed: int) -> tuple[np.ndarray, 
     """Row positions of the training and validation parts, stratified by ``y``.
 
     Rows of one ``sample`` (the cameras of one rendered object) stay together so views of one object never
-    straddle the split; tables without that column split by row.
+    straddle the split, and in a dataset drawn with ``generate.paired`` so do twins (column ``pair``: one scene,
+    one dented and one intact object), their groups a stratum of their own; tables without either split by row.
     """
     rng = np.random.default_rng(seed)
-    groups = table["sample"].to_numpy() if "sample" in table.columns else np.arange(len(table))
+    key = next((c for c in ("pair", "sample") if c in table.columns), None)
+    groups = table[key].to_numpy() if key else np.arange(len(table))
     y = table["y"].to_numpy()
+    both = np.intersect1d(groups[y == 0], groups[y == 1])  # twins: groups that hold both classes
     train = []
-    for cls in (0, 1):
-        g = rng.permutation(np.unique(groups[y == cls]))
+    for cls in (0, 1, None):
+        g = both if cls is None else np.setdiff1d(groups[y == cls], both)
+        if cls is None and not len(g):
+            break
+        g = rng.permutation(g)
         # at least one group of a class in each part whenever the class has two or more
         n = len(g) if len(g) < 2 else min(len(g) - 1, max(1, round(fraction * len(g))))
         train.append(g[:n])
