@@ -77,11 +77,9 @@ def split(table: pd.DataFrame, fraction: float, seed: int) -> tuple[np.ndarray, 
     groups = table[key].to_numpy() if key else np.arange(len(table))
     y = table["y"].to_numpy()
     both = np.intersect1d(groups[y == 0], groups[y == 1])  # twins: groups that hold both classes
+    strata = [np.setdiff1d(groups[y == cls], both) for cls in (0, 1)] + ([both] if len(both) else [])
     train = []
-    for cls in (0, 1, None):
-        g = both if cls is None else np.setdiff1d(groups[y == cls], both)
-        if cls is None and not len(g):
-            break
+    for g in strata:
         g = rng.permutation(g)
         # at least one group of a class in each part whenever the class has two or more
         n = len(g) if len(g) < 2 else min(len(g) - 1, max(1, round(fraction * len(g))))

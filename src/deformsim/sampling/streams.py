@@ -3,7 +3,8 @@
 A stream's generator is ``default_rng([seed, *keys, *tail])``: ``keys`` say which sample or image it draws for,
 ``tail`` tells the streams of one key apart. Each option with a stream of its own draws without moving any other
 draw, so turning it on leaves everything else as it was. A new stream is one line of :data:`STREAMS`, with a tail
-no stream of the same keys uses.
+no stream of the same keys uses. With ``generate.paired`` a sample's streams take its pair's index (the deformed
+twin's), and an image's streams its twin's image id, so twins draw alike (:func:`deformsim.sampling.sample_params`).
 """
 
 from __future__ import annotations
