@@ -46,7 +46,6 @@ def test_split_rejects_a_sample_with_mixed_labels():
         grouped_split(t, 0.8, seed=0)
 
 
-
 def test_twins_stay_together_and_unpaired_splits_are_as_before():
     """generate.paired: a dented object and its intact twin share one scene, so a twin on each side would test on a
     scene seen in training with the other label; the split keeps them together, and splits lone samples as before."""

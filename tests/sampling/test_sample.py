@@ -258,7 +258,8 @@ def test_paired_twins_share_every_draw_but_the_damage():
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[2] / "examples" / "tin"
-    cfg = load_config(root / "config.yaml", {"object.spec": str(root / "spec.yaml"), "generate.paired": True})
+    cfg = load_config(root / "config.yaml", {"object.spec": str(root / "spec.yaml")})
+    assert cfg.generate.paired  # the tin example draws twins
     spec = load_spec(root / "spec.yaml")
     for k in range(20):
         damaged, twin = sample_params(2 * k, 3, cfg, spec, HDRIS), sample_params(2 * k + 1, 3, cfg, spec, HDRIS)
@@ -267,10 +268,10 @@ def test_paired_twins_share_every_draw_but_the_damage():
         differ = {f for f in SampleParams.__dataclass_fields__ if getattr(damaged, f) != getattr(twin, f)}
         assert differ <= {"index", "label", "families", "keys", "displacement", "extent", "bank", "bank_amount"}
         assert damaged.surface is not None and damaged.material is not None and damaged.lights
-    unpaired = load_config(root / "config.yaml", {"object.spec": str(root / "spec.yaml")})
+    unpaired = load_config(root / "config.yaml", {"object.spec": str(root / "spec.yaml"), "generate.paired": False})
     a, b = sample_params(0, 3, unpaired, spec, HDRIS), sample_params(1, 3, unpaired, spec, HDRIS)
     assert a.pair is None and a.cameras != b.cameras and a.surface != b.surface
-    assert sample_params(0, 3, unpaired, spec, HDRIS) == sample_params(0, 3, cfg.model_copy(
-        update={"generate": cfg.generate.model_copy(update={"paired": False})}), spec, HDRIS)
+    from dataclasses import replace  # a deformed twin (2k) draws as it would unpaired
+    assert sample_params(2, 3, unpaired, spec, HDRIS) == replace(sample_params(2, 3, cfg, spec, HDRIS), pair=None)
     with pytest.raises(UserError, match="paired needs generate.intact_fraction 0.5.*not 0.3"):
         load_config("quick", {"generate.paired": True, "generate.intact_fraction": 0.3})
