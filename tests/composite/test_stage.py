@@ -252,11 +252,14 @@ def test_a_variant_moved_aside_by_a_killed_swap_is_put_back(tmp_path):
 
 
 @pytest.mark.parametrize("balance", [False, True])
-def test_paired_twins_share_each_images_composite_draws(dataset, tmp_path, backgrounds_dir, balance):
+def test_paired_twins_share_each_images_composite_draws(dataset, tmp_path, balance):
     """generate.paired: an intact image is composited with its deformed twin's background, framing and camera
     effects (manifest column ``pair``), balanced backgrounds too; without the column each image draws its own."""
-    cfg = CompositeConfig(backgrounds=_photos(tmp_path, backgrounds_dir, 6), effects={}, object_fill=(0.5, 0.9),
-                          balance_backgrounds=balance)
+    photos, rng = tmp_path / "photos", np.random.default_rng(0)
+    photos.mkdir()
+    for i in range(6):
+        cv2.imwrite(str(photos / f"p{i}.png"), rng.integers(0, 256, (80, 120, 3), dtype=np.uint8))
+    cfg = CompositeConfig(backgrounds=photos, effects={}, object_fill=(0.5, 0.9), balance_backgrounds=balance)
     cols = ["background", "bg_x", "bg_y", "bg_scale", "bg_flip", "fx_exposure", "fx_noise"]
 
     def twins(variant):
