@@ -89,7 +89,7 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
     twins = twin_ids(manifest)
     if photos and cfg.balance_backgrounds:
         first = balanced_photos(manifest["id"].tolist(), manifest["y"].tolist(), len(photos), seed)
-        jobs = [(*job, first[twins.get(job[0], job[0])]) for job in jobs]
+        jobs = [(*job, first[twins.get(job[0], job[0])]) for job in jobs]  # a twin's photo is its deformed twin's
 
     variants = layout.root / "variants"
     sweep_staging(variants)
@@ -253,8 +253,9 @@ def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | 
     """Matte, background and composite one image (worker side); writes it (and its moved maps) and returns its
     manifest row. ``shadow``: the part's shadow map (alpha matte only); ``scene``: the rendered surface scene,
     shown whole instead with probability ``composite.surface``."""
-    cfg, rng = _STATE["cfg"], stream("image", _STATE["seed"], stable_int(_draws_of(iid)))
-    if scene is not None and use_surface(_STATE["seed"], _draws_of(iid), cfg.surface):
+    draws = _draws_of(iid)
+    cfg, rng = _STATE["cfg"], stream("image", _STATE["seed"], stable_int(draws))
+    if scene is not None and use_surface(_STATE["seed"], draws, cfg.surface):
         return _surface_one(iid, scene, exact, maps, rng, cfg)
     if cfg.matte == "alpha":
         alpha, fg = alpha_matte(_read(src, cv2.IMREAD_UNCHANGED))
@@ -272,7 +273,7 @@ def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | 
     shade = np.clip(shade, 0, 1) if shade is not None else None
     bg = bg.astype(np.float32)
     if shade is not None:
-        strength = shadow_strength(_STATE["seed"], _draws_of(iid), cfg.shadow_strength)
+        strength = shadow_strength(_STATE["seed"], draws, cfg.shadow_strength)
         bg = bg * (1.0 - strength * shade)[..., None]
         info["shadow_strength"] = strength
     out = fg + (1.0 - alpha)[..., None] * bg
