@@ -602,10 +602,11 @@ class TrainConfig(_Model):
     tta_flip: bool = Field(
         False, description="test time: average the prediction of each image and its mirror image"
     )
-    crop: Literal["none", "saliency", "center"] = Field(
-        "none", description="test time: crop each image to a square before classifying: saliency, around its most "
-        "salient region (the part, by spectral-residual saliency); center, its largest centred square; none: the whole "
-        "image, resized to a square; training images (square renders) are not cropped"
+    crop: Literal["none", "saliency", "center", "pad"] = Field(
+        "none", description="test time: make each image square before classifying: saliency, a crop around its most "
+        "salient region (the part, by spectral-residual saliency); center, its largest centred square; pad, the whole "
+        "image on a square, its margins the image stretched and blurred; none: the whole image, resized to a square "
+        "(squeezed if not square); training images (square renders) are not changed"
     )
 
     @model_validator(mode="after")

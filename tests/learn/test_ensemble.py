@@ -168,6 +168,21 @@ def test_center_crop_is_the_largest_centred_square():
     np.testing.assert_array_equal(np.asarray(out), np.asarray(image)[5:35])
 
 
+def test_pad_keeps_the_whole_image_unsqueezed_on_a_square():
+    """A portrait photo is kept whole at its aspect (not squeezed by the resize to the square input); the margins are
+    its own blurred colours, not one flat band; a square image passes unchanged."""
+    from deformsim.learn.crops import crop
+
+    rng = np.random.default_rng(0)
+    image = Image.fromarray(rng.integers(0, 256, (40, 30, 3), dtype=np.uint8))
+    out = np.asarray(crop(image, "pad"))
+    assert out.shape == (40, 40, 3)
+    np.testing.assert_array_equal(out[:, 5:35], np.asarray(image))
+    assert out[:, :5].std(axis=(0, 1)).min() > 0
+    square = Image.fromarray(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8))
+    np.testing.assert_array_equal(np.asarray(crop(square, "pad")), np.asarray(square))
+
+
 def test_an_ensemble_of_certain_members_has_a_finite_loss():
     """A member's float32 sigmoid saturates at exactly 1: the ensemble's logit stays finite, so its loss does too."""
     first, second = (build(TrainConfig(**CFG, seed=s))[0] for s in (0, 1))

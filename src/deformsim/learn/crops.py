@@ -1,6 +1,7 @@
-"""Square crops at test time (``train.crop``): ``saliency``, a square around the most salient region (the part);
-``center``, the largest centred square. Either keeps the photo's aspect, which resizing a whole non-square photo
-to the square input would distort (the renders are square).
+"""Square views at test time (``train.crop``): ``saliency``, a square around the most salient region (the part);
+``center``, the largest centred square; ``pad``, the whole image on a square whose margins are the image itself,
+stretched and blurred. Each keeps the photo's aspect, which resizing a whole non-square photo to the square input
+would distort (the renders are square); ``pad`` alone keeps all of the photo.
 
 Saliency is the spectral residual of Hou and Zhang (CVPR 2007) on a 64 px grey thumbnail: the log amplitude
 spectrum less its local mean, transformed back with the original phase, squared and blurred. Pixels above three
@@ -13,11 +14,12 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from PIL import Image
+from PIL import Image, ImageFilter
 
 THUMB = 64
 MARGIN = 0.15
 MIN_SIDE = 0.4
+PAD_BLUR = 0.05  # Gaussian radius of ``pad``'s margins, as a share of the square's side
 
 
 def saliency_map(image: Image.Image) -> np.ndarray:
@@ -58,9 +60,23 @@ def center_box(image: Image.Image) -> tuple[int, int, int, int]:
     return left, top, left + side, top + side
 
 
+def pad(image: Image.Image) -> Image.Image:
+    """``image`` whole and centred on a square of its longer side, the margins filled by ``image`` stretched to the
+    square and blurred (no hard band of one colour, which no training image has); a square image is unchanged."""
+    w, h = image.size
+    side = max(w, h)
+    if w == h:
+        return image
+    out = image.resize((side, side), Image.BILINEAR).filter(ImageFilter.GaussianBlur(PAD_BLUR * side))
+    out.paste(image, ((side - w) // 2, (side - h) // 2))
+    return out
+
+
 BOXES = {"saliency": saliency_box, "center": center_box}
 
 
 def crop(image: Image.Image, mode: str) -> Image.Image:
-    """``image`` cropped as ``train.crop`` says (``none``: unchanged)."""
-    return image if mode == "none" else image.crop(BOXES[mode](image))
+    """``image`` made square as ``train.crop`` says (``none``: unchanged)."""
+    if mode == "none":
+        return image
+    return pad(image) if mode == "pad" else image.crop(BOXES[mode](image))
