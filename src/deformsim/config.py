@@ -569,6 +569,10 @@ class TrainConfig(_Model):
         "last_conv", description="trainable part of the backbone: its last convolution (the paper) or last block"
     )
     head: Literal["mlp", "linear"] = Field("mlp", description="mlp: the paper's 3 layers; linear: a linear probe")
+    pool: Literal["avg", "max", "avgmax"] = Field(
+        "avg", description="how the trainable layers' feature map becomes the head's input: its mean (the paper's), "
+        "its maximum (a local feature counts however small its area) or both side by side"
+    )
     feature_norm: bool = Field(
         False, description="batch-normalise the pooled features (lets --adapt re-estimate them on real photos)"
     )

@@ -107,3 +107,17 @@ def test_train_reads_generated_dataset_variant(blobs, tmp_path):
     assert list(table["path"]) == [str(tmp_path / "images" / "black" / f"{r['id']}.png") for r in rows]
     with pytest.raises(UserError, match="variant 'nope'"):
         load_table(tmp_path, "nope", "black")
+
+
+def test_max_pooled_model_trains_reloads_and_exports(blobs, tmp_path):
+    cfg = TrainConfig(weights="offline", image_size=64, epochs=2, batch_size=16, pool="avgmax")
+    result = fit(blobs, cfg, tmp_path / "m", progress=False)
+    assert result.history[-1]["val_acc"] >= 0.75  # chance is 0.5
+    predictor = load(tmp_path / "m")
+    paths = list(blobs["path"][:4])
+    assert predictor.features(paths, "pooled").shape == (4, 1024)  # mean and maximum of 512 channels
+    expected = predictor.predict_proba(paths)
+    session = ort.InferenceSession(str(to_onnx(tmp_path / "m", tmp_path / "m.onnx")),
+                                   providers=["CPUExecutionProvider"])
+    got = session.run(["p_deformed"], {"image": torch.stack([load_image(p, 64) for p in paths]).numpy()})[0]
+    np.testing.assert_allclose(got, expected, atol=1e-5)

@@ -33,7 +33,7 @@ def _gradcam(model: DeformNet, stems: torch.Tensor) -> np.ndarray:
             rest = act
             for m in layers[split:]:
                 rest = m(rest)
-            logit = model.head(model.norm(model.pool(rest).flatten(1))).squeeze(1)
+            logit = model.head(model.norm(model.pool(rest))).squeeze(1)
             (grad,) = torch.autograd.grad(logit.sum(), act)
         cam = torch.relu((grad.mean(dim=(2, 3), keepdim=True) * act).sum(1)).detach()
         peak = cam.flatten(1).max(1).values.clamp_min(1e-12)[:, None, None]

@@ -1,4 +1,8 @@
-"""Heads on the backbone: the paper's classifier head (and its linear probe) and the light region head.
+"""Heads on the backbone: the global pooling before them, the paper's classifier head (and its linear probe) and
+the light region head.
+
+The pooling (``train.pool``) turns the trainable layers' map into one vector: its mean (``avg``, the paper's), its
+maximum (``max``: a local feature counts wherever it fires, however small its area) or both side by side (``avgmax``).
 
 The region head (``train.target: localise``) reads the frozen stem's feature map: a 3x3 convolution to
 :data:`REGION_WIDTH` channels, ReLU, a 1x1 convolution to one logit per cell, bilinearly upsampled to
@@ -11,6 +15,23 @@ import torch
 from torch import nn
 
 REGION_WIDTH = 64
+POOL_WIDTH = {"avg": 1, "max": 1, "avgmax": 2}  # pooled vector width per feature-map channel
+
+
+class GlobalPool(nn.Module):
+    """Feature map (N, C, h, w) -> (N, C) (``avg``, ``max``) or (N, 2C) (``avgmax``: mean then max)."""
+
+    def __init__(self, mode: str = "avg"):
+        super().__init__()
+        self.mode = mode
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        pooled = []
+        if self.mode in ("avg", "avgmax"):
+            pooled.append(nn.functional.adaptive_avg_pool2d(x, 1).flatten(1))
+        if self.mode in ("max", "avgmax"):
+            pooled.append(nn.functional.adaptive_max_pool2d(x, 1).flatten(1))
+        return pooled[0] if len(pooled) == 1 else torch.cat(pooled, 1)
 
 
 def region_size(image_size: int) -> int:

@@ -20,14 +20,14 @@ from torch import nn
 
 from deformsim.config import TrainConfig
 from deformsim.learn.backbones import BACKBONES
-from deformsim.learn.heads import RegionHead, region_size, vector_head
+from deformsim.learn.heads import POOL_WIDTH, GlobalPool, RegionHead, region_size, vector_head
 from deformsim.learn.weights import resolve
 
 
 class DeformNet(nn.Module):
     def __init__(self, backbone: str, hidden: tuple[int, int], dropout: float, finetune: str = "last_conv",
                  head: str = "mlp", feature_norm: bool = False, target: str = "label", outputs: int = 1,
-                 image_size: int = 224):
+                 image_size: int = 224, pool: str = "avg"):
         super().__init__()
         self.backbone = backbone
         self.target = target
@@ -36,12 +36,13 @@ class DeformNet(nn.Module):
         self.cut, stem_width = bb.cuts[finetune]
         self.register_buffer("mean", torch.tensor(bb.mean, dtype=torch.float32).view(1, 3, 1, 1))
         self.register_buffer("std", torch.tensor(bb.std, dtype=torch.float32).view(1, 3, 1, 1))
-        self.pool = nn.AdaptiveAvgPool2d(1)
-        self.norm = nn.BatchNorm1d(bb.width, affine=False) if feature_norm else nn.Identity()
+        self.pool = GlobalPool(pool)
+        width = bb.width * POOL_WIDTH[pool]
+        self.norm = nn.BatchNorm1d(width, affine=False) if feature_norm else nn.Identity()
         if target == "localise":
             self.head = RegionHead(stem_width, region_size(image_size))
         else:
-            self.head = vector_head(bb.width, hidden, dropout, head, outputs)
+            self.head = vector_head(width, hidden, dropout, head, outputs)
         if target == "severity":  # mean and standard deviation of the training targets (mm)
             self.register_buffer("scale", torch.tensor([0.0, 1.0]))
         for p in self.frozen_parameters():
@@ -66,7 +67,7 @@ class DeformNet(nn.Module):
 
     def pooled_raw(self, z: torch.Tensor) -> torch.Tensor:
         """From stem activations to the pooled output of the trainable backbone layers (N, width)."""
-        return self.pool(self.features[self.cut :](z)).flatten(1)
+        return self.pool(self.features[self.cut :](z))
 
     def embed(self, z: torch.Tensor, layer: str = "penultimate") -> torch.Tensor:
         """From stem activations to pooled (normalised) backbone features (``pooled``) or the last hidden layer."""
@@ -166,7 +167,7 @@ def build(cfg: TrainConfig, load_weights: bool = True, outputs: int = 1) -> tupl
     for k in range(cfg.ensemble):
         torch.manual_seed(cfg.seed + k)
         nets.append(DeformNet(cfg.backbone, cfg.hidden, cfg.dropout, cfg.finetune, cfg.head, cfg.feature_norm,
-                              cfg.target, outputs, cfg.image_size))
+                              cfg.target, outputs, cfg.image_size, cfg.pool))
     desc = "loaded from a saved model"
     if load_weights:
         state, desc = resolve(cfg.backbone, cfg.weights)
