@@ -68,6 +68,8 @@ def test_sim2real_prints_the_summary(monkeypatch, tmp_path):
     assert res.exit_code == 0, res.output
     black = next(line for line in res.stdout.splitlines() if "black" in line)
     assert "50.0 ± 50.0%" in black and "62.0%" in black
+    # held-out renders at chance: said on the terminal, not only in the report
+    assert "warning: variant black: mean held-out synthetic accuracy 0.50 is below 0.75" in res.stdout
     assert res.stdout.strip().endswith(f"report: {tmp_path / 'b' / 'report.html'}")
 
 

@@ -170,3 +170,15 @@ def test_balance_weighs_the_fewer_deformed_images_up(blobs, tmp_path):
     assert probs[False] < 0.45 < probs[True]
     with pytest.raises(ValueError, match="train.balance applies to train.target label"):
         TrainConfig(balance=True, target="severity")
+
+
+def test_a_model_that_learned_nothing_is_a_warning_naming_the_rate(blobs, tmp_path, caplog):
+    # a whole VGG block at a rate far too high: its ReLUs die and it calls every image one class
+    fit(blobs, CFG.model_copy(update={"lr": 1.0, "finetune": "last_block"}), tmp_path / "m", progress=False)
+    (warning,) = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert warning.startswith("training did not learn: after 3 epochs the model scores its training images 0.500, no "
+                              "better than calling them all one class (0.500)")
+    assert "lower train.lr (now 1;" in warning
+    caplog.clear()
+    fit(blobs, CFG, tmp_path / "ok", progress=False)  # the same images at the default rate: learned, no warning
+    assert not [r for r in caplog.records if r.levelname == "WARNING"]

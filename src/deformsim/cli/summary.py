@@ -92,7 +92,10 @@ def sim2real_summary(results: dict, report: Path) -> None:
         if e:
             cells = _spreads(e, METRICS)
             table.add_row(f"{variant}, ensemble of {e['members']} seeds", str(e["n_draws"]), *cells, "", "")
-    print_table(table, report, _often_wrong(results) if "real_labels" in results else ())
+    from deformsim.evaluate.experiments import low_synthetic_runs
+
+    warnings = tuple(f"[bold yellow]warning:[/] {escape(line)}" for line in low_synthetic_runs(results))
+    print_table(table, report, warnings + (_often_wrong(results) if "real_labels" in results else ()))
     if results.get("baseline"):
         baseline_summary(results)
 

@@ -191,6 +191,14 @@ def low_synthetic_line(variant: str, accuracy: float, what: str = "held-out synt
             "deformsim spec check --config), then render more or larger images or train longer")
 
 
+def low_synthetic_runs(results: dict) -> list[str]:
+    """:func:`low_synthetic_line` of each variant of a benchmark's ``results`` whose mean held-out synthetic accuracy
+    is too low to read its real figures."""
+    lines = (low_synthetic_line(v, s["synthetic_accuracy_mean"], "mean held-out synthetic accuracy")
+             for v, s in results["variants"].items() if s.get("synthetic_accuracy_mean") is not None)
+    return [line for line in lines if line]
+
+
 def low_synthetic(metrics: dict) -> list[str]:
     """:func:`low_synthetic_line` of every variant of a report's ``metrics`` that has one."""
     lines = []

@@ -36,6 +36,7 @@ from deformsim.learn.models import LOGIT_EPS, DeformNet, build, members
 from deformsim.log import get_logger, progress_bar
 
 log = get_logger(__name__)
+STALL_MARGIN = 0.02  # training accuracy within this of the majority class's share: the model learned nothing
 
 
 @dataclass
@@ -225,6 +226,20 @@ def _log_summary(history: list[dict], cfg: TrainConfig, n_train: int, n_val: int
              "-" if val is None else f"{val:.3f}", n_val)
 
 
+def stalled(history: list[dict], y: torch.Tensor, cfg: TrainConfig) -> str | None:
+    """A warning when a label model's last epoch (``history``) scored its training images (labels ``y``) no better
+    than calling them all the majority class (within :data:`STALL_MARGIN`): the optimiser never left the start, or
+    left it and died; None otherwise."""
+    share = float(y.float().mean())
+    majority, acc = max(share, 1 - share), history[-1]["acc"]
+    if acc > majority + STALL_MARGIN:
+        return None
+    return (f"training did not learn: after {len(history)} epochs the model scores its training images "
+            f"{acc:.3f}, no better than calling them all one class ({majority:.3f}), and its loss is "
+            f"{history[-1]['loss']:.3f}; lower train.lr (now {cfg.lr:g}; a whole block, train.finetune last_block, "
+            "learns at about 0.0001)")
+
+
 def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = True,
         adapt: Path | None = None) -> TrainResult:
     """Train on ``table`` (columns id, path, y), validate on its held-out split, save ``out_dir/model.pt``.
@@ -254,8 +269,12 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     splits = [tuple(torch.as_tensor(r, dtype=torch.long) for r in split(table, cfg.split, c.seed)) for c in seeded]
     train_rows, val_rows = splits[0]
     if cfg.target == "label":
-        history = _mean_history([_fit_label(net, opt, inputs, t, v, y, c, device, progress)
-                                 for net, opt, c, (t, v) in zip(nets, opts, seeded, splits)])
+        histories = [_fit_label(net, opt, inputs, t, v, y, c, device, progress)
+                     for net, opt, c, (t, v) in zip(nets, opts, seeded, splits)]
+        for k, (h, (t, _)) in enumerate(zip(histories, splits)):
+            if warning := stalled(h, y[t.to(y.device)], cfg):
+                log.warning("%s%s", f"ensemble member {k + 1}: " if len(nets) > 1 else "", warning)
+        history = _mean_history(histories)
     else:
         history = fit_head(model, inputs.all(torch.arange(len(table)), cfg.batch_size), table, train_rows, val_rows,
                            cfg, progress)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from deformsim.atomic import write_text
 from deformsim.evaluate.calibration import reliability
-from deformsim.evaluate.experiments import low_synthetic_line
+from deformsim.evaluate.experiments import low_synthetic_runs
 from deformsim.evaluate.paired import often_wrong
 from deformsim.report.figures import data_uri, error_bars_png, reliability_png
 from deformsim.report.html import CSS
@@ -34,13 +34,6 @@ def _value(run: dict, key: str) -> float:
 
 def _mine(results: dict, variant: str) -> list[dict]:
     return [r for r in results["runs"] if r["variant"] == variant]
-
-
-def _low_synthetic(results: dict) -> list[str]:
-    """The warning of each variant whose mean held-out synthetic accuracy is too low to read its real figures."""
-    lines = (low_synthetic_line(v, s["synthetic_accuracy_mean"], "mean held-out synthetic accuracy")
-             for v, s in results["variants"].items() if s.get("synthetic_accuracy_mean") is not None)
-    return [line for line in lines if line]
 
 
 def _hero(results: dict) -> str:
@@ -181,7 +174,7 @@ def render_benchmark_html(results: dict) -> str:
         f"<title>deformsim sim-to-real benchmark</title><style>{CSS}{EXTRA_CSS}</style></head><body><main>",
         "<h1>Sim-to-real benchmark</h1>",
         f"<div class=sub>{escape(str(results.get('real_dir', '')))} · {escape(str(results.get('created', '')))}</div>",
-        "".join(f"<div class=warn><b>Warning:</b> {escape(line)}</div>" for line in _low_synthetic(results)),
+        "".join(f"<div class=warn><b>Warning:</b> {escape(line)}</div>" for line in low_synthetic_runs(results)),
         _hero(results),
         "<h2>Results by training variant</h2>",
         "<p class=note>Percent, mean ± sample standard deviation over runs. Each run trains on synthetic images only "
