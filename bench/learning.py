@@ -13,6 +13,7 @@ Each is the fastest of ``--repeats`` runs on n + n blob images (tests/learn/blob
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 import tempfile
@@ -23,6 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tests" / "learn")]
 
 from deformsim.learn.backbones import BACKBONES  # noqa: E402
+from deformsim.log import get_logger  # noqa: E402
 
 
 def _stem_seconds(model, paths: list[str], size: int, channels_last: bool, repeats: int) -> float:
@@ -53,6 +55,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--backbones", default=",".join(BACKBONES))
     args = ap.parse_args()
+    get_logger("deformsim").setLevel(logging.ERROR)  # one epoch on random weights learns nothing: timed only
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["DEFORMSIM_CACHE"] = str(Path(tmp) / "cache")
         import torch

@@ -234,7 +234,8 @@ def stalled(history: list[dict], y: torch.Tensor, cfg: TrainConfig) -> str | Non
     majority, acc = max(share, 1 - share), history[-1]["acc"]
     if acc > majority + STALL_MARGIN:
         return None
-    return (f"training did not learn: after {len(history)} epochs the model scores its training images "
+    epochs = f"{len(history)} epoch{'' if len(history) == 1 else 's'}"
+    return (f"training did not learn: after {epochs} the model scores its training images "
             f"{acc:.3f}, no better than calling them all one class ({majority:.3f}), and its loss is "
             f"{history[-1]['loss']:.3f}; lower train.lr (now {cfg.lr:g}; a whole block, train.finetune last_block, "
             "learns at about 0.0001)")
