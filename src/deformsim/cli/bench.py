@@ -1,4 +1,5 @@
-"""`deformsim bench sim2real`: real-photo metrics as mean and standard deviation over seeds."""
+"""`deformsim bench`: real-photo metrics as mean and standard deviation over seeds (``sim2real``), paired
+differences (``compare``), benchmarks combined after the fact (``merge``, ``mean``) and few-shot adaptation."""
 
 from __future__ import annotations
 
@@ -67,7 +68,44 @@ def register(app: typer.Typer) -> None:
         new["baseline"] = {"results": str(baseline), "comparison": paired(new, read_results(baseline))}
         baseline_summary(new)
 
+    bench_app.command("merge")(fail_cleanly(merge))
+    bench_app.command("mean")(fail_cleanly(mean))
     bench_app.command("fewshot")(fail_cleanly(fewshot))
+
+
+_INPUTS = typer.Argument(..., help="two or more benchmarks' results.json (or their folders), on the same photos")
+_OUT = typer.Option(..., "--out", "-o", help="folder for the combined results.json and report.html")
+
+
+def merge(results: list[Path] = _INPUTS, out: Path = _OUT) -> None:
+    """Pool the runs of benchmarks of other render draws into one, so that compare pairs over all of them."""
+    from deformsim.evaluate.combine import merge as combine
+
+    _combined(combine, results, out)
+
+
+def mean(results: list[Path] = _INPUTS, out: Path = _OUT) -> None:
+    """Score each run's mean prediction with its paired runs (same variant and seeds) in the other benchmarks: an
+    ensemble of models trained apart, such as two backbones on the same renders."""
+    from deformsim.evaluate.combine import mean as combine
+
+    _combined(combine, results, out)
+
+
+def _combined(combine, results: list[Path], out: Path) -> None:
+    """Combine ``results`` into ``out/results.json`` and ``out/report.html``, then print its summary."""
+    from deformsim.atomic import write_json
+    from deformsim.evaluate.benchmark import read_results
+    from deformsim.outputs import check_file_target, check_folder_target
+    from deformsim.report.benchmark import write_benchmark_report
+
+    files = [p / "results.json" if p.is_dir() else p for p in results]
+    check_folder_target(out, "--out")
+    check_file_target(out / "results.json", "--out", files)
+    combined = combine([read_results(f) for f in files], [str(f) for f in files])
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / "results.json", combined)
+    sim2real_summary(combined, write_benchmark_report(combined, out))
 
 
 def fewshot(

@@ -40,6 +40,11 @@ def _draw(run: dict) -> tuple:
     return run["data_seed"], run["composite_seed"]
 
 
+def run_key(run: dict) -> tuple:
+    """What a run pairs by: its variant, data and background seed, and training seed."""
+    return run["variant"], *_draw(run), run["train_seed"]
+
+
 def ensembles(results: dict) -> dict[str, dict]:
     """Per variant: the metrics of each draw's ensemble (the mean probability over its training seeds) as mean ±
     std over the draws, with ``n_draws`` and ``members`` (training seeds per draw)."""
@@ -102,7 +107,7 @@ def check_same_photos(results: dict, baseline: dict) -> None:
 def _pairs(results: dict, baseline: dict, variant: str) -> list[tuple[dict, dict]]:
     same_variant = [b for b in baseline["runs"] if b["variant"] == variant]
     pool = same_variant or baseline["runs"]
-    key = (lambda r: (r["variant"], *_draw(r), r["train_seed"])) if same_variant else (lambda r: (*_draw(r), r["train_seed"]))
+    key = run_key if same_variant else (lambda r: (*_draw(r), r["train_seed"]))
     base = {key(b): b for b in pool}
     return [(r, base[key(r)]) for r in results["runs"] if r["variant"] == variant and key(r) in base]
 

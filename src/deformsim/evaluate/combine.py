@@ -1,0 +1,95 @@
+"""Sim-to-real benchmarks combined after the fact, on the same photos: ``merge`` pools the runs of several (other
+render draws, so a comparison pairs over all of them), ``mean`` scores each run's mean prediction with its paired runs
+in the others (an ensemble of models trained apart, such as two backbones on the same renders).
+
+Runs pair as :mod:`deformsim.evaluate.paired` pairs them: by variant, data and background seed and training seed. The
+real metrics of a ``mean`` run are those of its mean probabilities; its synthetic figures are its members' mean (their
+held-out renders' predictions are not kept). Both keep the first benchmark's settings (the threshold they score at);
+the report's plan names every input.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime, timezone
+
+import numpy as np
+
+from deformsim.errors import UserError
+from deformsim.evaluate.benchmark import aggregate
+from deformsim.evaluate.metrics import compute_metrics
+from deformsim.evaluate.paired import METRICS, check_same_photos, ensembles, run_key
+
+
+def _named(key: tuple) -> str:
+    variant, data, background, train = key
+    return f"variant {variant}, data seed {data}, background seed {background}, training seed {train}"
+
+
+def _threshold(results: dict) -> float:
+    return results["settings"]["train"]["threshold"]
+
+
+def _checked(inputs: list[dict], sources: list[str]) -> None:
+    """One line unless there are two or more benchmarks, all on the first's photos at its threshold."""
+    if len(inputs) < 2:
+        raise UserError("give two or more benchmark results to combine")
+    for results, source in zip(inputs[1:], sources[1:]):
+        try:
+            check_same_photos(results, inputs[0])
+        except UserError:
+            raise UserError(f"{source} was scored on other photos (or labels) than {sources[0]}: combine benchmarks "
+                            "of the same --real folder") from None
+        if _threshold(results) != _threshold(inputs[0]):
+            raise UserError(f"{source} scores at threshold {_threshold(results):g}, {sources[0]} at "
+                            f"{_threshold(inputs[0]):g}: combine benchmarks of the same train.threshold")
+
+
+def _results(inputs: list[dict], runs: list[dict], sources: list[str], how: str) -> dict:
+    """Results as the benchmark writes them, with the first input's photos and settings; the time is all inputs'."""
+    first = inputs[0]
+    out = {k: first[k] for k in ("real_dir", "real_images", "real_paths", "real_labels", "majority_baseline")}
+    out |= {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"), "plan": {how: sources},
+            "adapt": None, "settings": first["settings"], "variants": aggregate(runs), "runs": runs,
+            "seconds": float(sum(results.get("seconds", 0.0) for results in inputs))}
+    out["ensembles"] = ensembles(out)
+    return out
+
+
+def merge(inputs: list[dict], sources: list[str]) -> dict:
+    """The runs of every benchmark in ``inputs`` (named by ``sources``) as one benchmark's results; one line when two
+    hold the same run (the same variant and seeds: they would count twice)."""
+    _checked(inputs, sources)
+    seen: dict[tuple, str] = {}
+    for results, source in zip(inputs, sources):
+        for run in results["runs"]:
+            if (key := run_key(run)) in seen:
+                raise UserError(f"{seen[key]} and {source} both hold the run of {_named(key)}: merge benchmarks of "
+                                "other render draws (generate.seed)")
+            seen[key] = source
+    return _results(inputs, [r for results in inputs for r in results["runs"]], sources, "merged")
+
+
+def mean(inputs: list[dict], sources: list[str]) -> dict:
+    """Each run of the first benchmark that every other one pairs with, scored on its and its pairs' mean
+    probabilities; one line when no run pairs across all of them."""
+    _checked(inputs, sources)
+    y = np.asarray(inputs[0]["real_labels"])
+    threshold = _threshold(inputs[0])
+    by_key = [{run_key(r): r for r in results["runs"]} for results in inputs]
+    runs = []
+    for key, run in by_key[0].items():
+        if not all(key in other for other in by_key[1:]):
+            continue
+        members = [found[key] for found in by_key]
+        prob = np.mean([m["real_predictions"] for m in members], axis=0)
+        m = compute_metrics(y, prob, threshold)
+        runs.append({
+            "variant": run["variant"], "data_seed": run["data_seed"], "composite_seed": run["composite_seed"],
+            "train_seed": run["train_seed"], "model": [member["model"] for member in members],
+            "real": {k: m[k] for k in METRICS} | {"confusion": m["confusion"]["matrix"]},
+            "synthetic": {k: float(np.mean([member["synthetic"][k] for member in members])) for k in ("accuracy", "f1")},
+            "real_predictions": [float(p) for p in prob],
+        })
+    if not runs:
+        raise UserError(f"no run of {sources[0]} has a run with the same variant and seeds in every other benchmark")
+    return _results(inputs, runs, sources, "mean of")
