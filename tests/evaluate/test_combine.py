@@ -96,7 +96,7 @@ def test_other_photos_another_threshold_or_one_input_is_one_line(photos):
 def test_cli_writes_the_combined_results_and_never_over_an_input(photos, tmp_path):
     from typer.testing import CliRunner
 
-    from deformsim.cli import app
+    from deformsim.cli.app import app
 
     prob, y = photos
     for name, seeds in (("a", (0, 1)), ("b", (2, 3))):
