@@ -594,6 +594,11 @@ class TrainConfig(_Model):
         "split (bagging), saved as one that predicts their mean probability (they share the frozen layers, so their "
         "cached features too)"
     )
+    ensemble_backbones: list[Literal[tuple(BACKBONES)]] = Field(
+        [], description="more backbones whose models join the saved one: each trains as train.backbone's does (the "
+        "same split, seeds and train.ensemble members, its own frozen layers and cached features), and the model "
+        "predicts the mean of every backbone's probability"
+    )
     balance: bool = Field(
         False, description="weigh both classes the same in the loss (each deformed image by the training split's "
         "intact over deformed images): train.min_region leaves deformed images out, which tilts the model towards intact"
@@ -621,6 +626,13 @@ class TrainConfig(_Model):
             raise ValueError(f"train.balance applies to train.target label, not {self.target}")
         if self.ensemble > 1 and self.target != "label":
             raise ValueError(f"train.ensemble applies to train.target label, not {self.target}")
+        if self.ensemble_backbones and self.target != "label":
+            raise ValueError(f"train.ensemble_backbones applies to train.target label, not {self.target}")
+        if self.backbone in self.ensemble_backbones:
+            raise ValueError(f"train.ensemble_backbones names train.backbone ({self.backbone}) again: list the other "
+                             "backbones (train.ensemble adds members of the same one)")
+        if twice := [b for b in dict.fromkeys(self.ensemble_backbones) if self.ensemble_backbones.count(b) > 1]:
+            raise ValueError(f"train.ensemble_backbones names {twice[0]} twice")
         return self
 
 

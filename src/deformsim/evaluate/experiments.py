@@ -123,10 +123,10 @@ def gradcam_images(predictor, predictions: list[dict], threshold: float, out_dir
     from PIL import Image
 
     from deformsim.learn.crops import crop
-    from deformsim.learn.gradcam import gradcam, overlay
+    from deformsim.learn.gradcam import overlay
 
     chosen = [predictions[i] for i in review_order(predictions, threshold)[:GRADCAM_MAX]]
-    cams = np.concatenate([gradcam(predictor.model, z) for z in predictor._stems([p["path"] for p in chosen])])
+    cams = predictor.gradcam([p["path"] for p in chosen])
     out = []
     for n, (p, cam) in enumerate(zip(chosen, cams)):
         photo = crop(open_rgb(p["path"]), predictor.cfg.crop)  # what the model saw

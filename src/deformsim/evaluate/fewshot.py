@@ -139,7 +139,7 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
     check_outside(out, "--out", {"real photos": real})
     ckpt, path = checkpoint.read_checkpoint(model)
     cfg = checkpoint.saved_config(ckpt, path)
-    if cfg.target != "label" or getattr(cfg, "ensemble", 1) > 1:
+    if cfg.target != "label" or cfg.ensemble > 1 or cfg.ensemble_backbones:
         raise UserError(f"{path} is no single label classifier (train.target {cfg.target}, or an ensemble): the "
                         "few-shot benchmark needs one")
     table = _table(real)

@@ -1,7 +1,9 @@
 """A trained model's file, ``model.pt``: the state dict, training config, weights source, classes, history, split.
 
 A model of another ``train.target`` than ``label`` also records ``outputs``: the names of what it predicts
-(its families, ``max_disp_mm`` or ``region``), from which :func:`restore` rebuilds its head.
+(its families, ``max_disp_mm`` or ``region``), from which :func:`restore` rebuilds its head. A model trained with
+``train.ensemble_backbones`` holds each further backbone's model in ``mixture`` (its state dict, config and weights
+source), checked as the first is; :func:`restore` gives the first, :func:`restore_mixture` the others.
 """
 
 from __future__ import annotations
@@ -24,12 +26,20 @@ _SHA256 = re.compile("[0-9a-f]{64}")
 MAX_OUTPUTS = 1024  # what a model of train.target family may predict: one output per deformation family
 
 
+def _entry(model: DeformNet, cfg: TrainConfig, weights: str) -> dict:
+    return {"state_dict": {k: v.cpu() for k, v in model.state_dict().items()}, "config": cfg.model_dump(mode="json"),
+            "weights": weights}
+
+
 def save(path: Path, model: DeformNet, cfg: TrainConfig, weights: str, history: list[dict], split: dict,
-         outputs: list[str] | None = None, adapted_on: list[str] | None = None) -> None:
+         outputs: list[str] | None = None, adapted_on: list[str] | None = None,
+         mixture: list[tuple[DeformNet, TrainConfig, str]] = ()) -> None:
     """Write ``path`` atomically; ``split`` holds the ``train`` and ``val`` image ids, ``adapted_on`` the sha256 of
-    each real photo a fine-tuned model was adapted on (:mod:`deformsim.learn.finetune`)."""
-    ckpt = {"state_dict": {k: v.cpu() for k, v in model.state_dict().items()}, "config": cfg.model_dump(mode="json"),
-            "weights": weights, "classes": list(CLASSES), "history": history, "split": split}
+    each real photo a fine-tuned model was adapted on (:mod:`deformsim.learn.finetune`), ``mixture`` the further
+    backbones' models, configs and weights sources."""
+    ckpt = _entry(model, cfg, weights) | {"classes": list(CLASSES), "history": history, "split": split}
+    if mixture:
+        ckpt["mixture"] = [_entry(*m) for m in mixture]
     if outputs is not None:
         ckpt["outputs"] = list(outputs)
     if adapted_on is not None:
@@ -62,9 +72,18 @@ def read_checkpoint(model_path: str | Path) -> tuple[dict, Path]:
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # torch raises several types for corrupt or foreign files
         raise UserError(f"{path} is not a deformsim model: {clip(str(exc), 160)}") from None
-    if not isinstance(ckpt, dict) or not isinstance(ckpt.get("state_dict"), dict) or "config" not in ckpt:
-        raise UserError(f"{path} is not a deformsim model (no state_dict/config)")
-    saved_config(ckpt, path)
+    cfg = _check_model(ckpt, path)
+    mixture = ckpt.get("mixture", [])
+    if not isinstance(mixture, list):
+        raise UserError(f"{path} is not a deformsim model: its mixture is not a list of models")
+    for k, entry in enumerate(mixture):
+        other = _check_model(entry, f"{path} (mixture model {k + 1})")
+        if other != cfg.model_copy(update={"backbone": other.backbone, "ensemble_backbones": []}):
+            raise UserError(f"{path} is not a deformsim model: its mixture model {k + 1} was trained otherwise than "
+                            "the first (their configs differ in more than the backbone)")
+    if [saved_config(e).backbone for e in mixture] != cfg.ensemble_backbones:
+        raise UserError(f"{path} is not a deformsim model: its mixture holds other backbones than its "
+                        f"train.ensemble_backbones ({', '.join(cfg.ensemble_backbones) or 'none'})")
     outputs = ckpt.get("outputs")
     if outputs is not None and not (isinstance(outputs, list) and 0 < len(outputs) <= MAX_OUTPUTS
                                     and all(isinstance(o, str) for o in outputs)):
@@ -75,12 +94,21 @@ def read_checkpoint(model_path: str | Path) -> tuple[dict, Path]:
     classes = ckpt.get("classes", list(CLASSES))
     if not (isinstance(classes, list) and len(classes) == 2 and all(isinstance(c, str) for c in classes)):
         raise UserError(f"{path} is not a deformsim model: its classes are not two names")
-    for name, tensor in ckpt["state_dict"].items():
+    return ckpt, path
+
+
+def _check_model(entry, path: Path | str) -> TrainConfig:
+    """``entry``'s training config; one line naming ``path`` unless it is valid and the state dict holds finite
+    tensors."""
+    if not isinstance(entry, dict) or not isinstance(entry.get("state_dict"), dict) or "config" not in entry:
+        raise UserError(f"{path} is not a deformsim model (no state_dict/config)")
+    cfg = saved_config(entry, path)
+    for name, tensor in entry["state_dict"].items():
         if not isinstance(tensor, torch.Tensor):
             raise UserError(f"{path} is not a deformsim model: state_dict entry {shown(name, 60)} is no tensor")
         if tensor.is_floating_point() and not torch.isfinite(tensor).all():
             raise UserError(f"{path} holds non-finite weights (NaN or infinity) in {shown(name, 60)}: train it again")
-    return ckpt, path
+    return cfg
 
 
 def saved_config(ckpt: dict, path: Path | str = "the model") -> TrainConfig:
@@ -107,3 +135,9 @@ def restore(ckpt: dict, path: Path | str = "the model") -> tuple[DeformNet, Trai
     except RuntimeError as exc:  # a state dict of another head or backbone than its config says
         raise UserError(f"{path} does not match its saved config: {clip(str(exc).splitlines()[0], 160)}") from None
     return model.eval(), cfg
+
+
+def restore_mixture(ckpt: dict, path: Path | str = "the model") -> list[tuple[DeformNet, TrainConfig]]:
+    """The further backbones' models of a ``train.ensemble_backbones`` model (none for others), as :func:`restore`
+    gives the first."""
+    return [restore(entry, f"{path} (mixture model {k + 1})") for k, entry in enumerate(ckpt.get("mixture", []))]

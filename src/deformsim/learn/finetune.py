@@ -177,6 +177,9 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     cfg = checkpoint.saved_config(ckpt, path)
     if cfg.target != "label":
         raise UserError(f"{path} predicts train.target {cfg.target}: fine-tuning needs a label classifier")
+    if cfg.ensemble_backbones:
+        raise UserError(f"{path} holds models of {len(cfg.ensemble_backbones) + 1} backbones "
+                        "(train.ensemble_backbones): fine-tuning takes a model of one backbone")
     photos = real_table(real)
     check_table(photos, f"--real {real}")
     if variant is not None and data is None:

@@ -4,8 +4,9 @@ The graph takes ``image``: float32 (N, 3, S, S) RGB in 0-1 (resized to the train
 normalisation: it is inside the graph) and outputs ``p_deformed``: (N,) probabilities, or for the other
 ``train.target`` s ``max_disp_mm`` (N,), ``p_family`` (N, K) or ``p_region`` (N, s, s). The training
 threshold, classes, target, output names, image size and weights source are stored as ONNX metadata. An
-ensemble's mean and test-time flips (``train.tta_flip``) are inside the graph; a test-time crop
-(``train.crop``) is not: the metadata names it, to apply before the graph.
+ensemble's mean (of its members and of its backbones' models, ``train.ensemble_backbones``) and test-time flips
+(``train.tta_flip``) are inside the graph; a test-time crop (``train.crop``) is not: the metadata names it, to apply
+before the graph.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from torch import nn
 
 from deformsim.atomic import atomic_path
 from deformsim.errors import ResourceError, UserError
-from deformsim.learn.checkpoint import read_checkpoint, restore
+from deformsim.learn.checkpoint import read_checkpoint, restore, restore_mixture
 from deformsim.learn.models import DeformNet, Ensemble
 from deformsim.outputs import DISK_FULL, check_file_target
 
@@ -26,15 +27,19 @@ OUTPUT = {"label": "p_deformed", "severity": "max_disp_mm", "family": "p_family"
 
 
 class _Probabilities(nn.Module):
-    def __init__(self, model: DeformNet | Ensemble, flip: bool, target: str):
+    def __init__(self, models: list[DeformNet | Ensemble], flip: bool, target: str):
         super().__init__()
-        self.model, self.flip, self.target = model, flip, target
+        self.models, self.flip, self.target = nn.ModuleList(models), flip, target
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
-        out = self.model.predict(image)
+        outs = [self._one(model, image) for model in self.models]
+        return outs[0] if len(outs) == 1 else torch.stack(outs).mean(0)
+
+    def _one(self, model: DeformNet | Ensemble, image: torch.Tensor) -> torch.Tensor:
+        out = model.predict(image)
         if not self.flip:
             return out
-        mirrored = self.model.predict(image.flip(-1))
+        mirrored = model.predict(image.flip(-1))
         return (out + (mirrored.flip(-1) if self.target == "localise" else mirrored)) / 2
 
 
@@ -46,8 +51,9 @@ def to_onnx(model_path: str | Path, onnx_path: str | Path) -> Path:
     onnx_path = check_file_target(onnx_path, "--onnx", [model_path])
     ckpt, path = read_checkpoint(model_path)
     model, cfg = restore(ckpt, path)
+    models = [model] + [m for m, _ in restore_mixture(ckpt, path)]
     try:
-        _export(model, cfg, ckpt, onnx_path)
+        _export(models, cfg, ckpt, onnx_path)
     except OSError as exc:
         if exc.errno in DISK_FULL:
             raise ResourceError(f"cannot write {onnx_path}: {exc.strerror}: free some disk space and export again") from None
@@ -55,19 +61,20 @@ def to_onnx(model_path: str | Path, onnx_path: str | Path) -> Path:
     return onnx_path
 
 
-def _export(model: DeformNet | Ensemble, cfg, ckpt: dict, onnx_path: Path) -> None:
+def _export(models: list[DeformNet | Ensemble], cfg, ckpt: dict, onnx_path: Path) -> None:
     import onnx
 
     example = torch.zeros(1, 3, cfg.image_size, cfg.image_size)
     output = OUTPUT[cfg.target]
     with atomic_path(onnx_path) as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice
-        torch.onnx.export(_Probabilities(model, cfg.tta_flip, cfg.target), (example,), str(tmp), dynamo=False, opset_version=17,
+        torch.onnx.export(_Probabilities(models, cfg.tta_flip, cfg.target), (example,), str(tmp), dynamo=False, opset_version=17,
                           input_names=["image"], output_names=[output],
                           dynamic_axes={"image": {0: "batch"}, output: {0: "batch"}})
         proto = onnx.load(str(tmp))
         meta = {"classes": ",".join(ckpt.get("classes", [])), "threshold": str(cfg.threshold),
-                "image_size": str(cfg.image_size), "backbone": cfg.backbone, "weights": ckpt.get("weights", ""),
+                "image_size": str(cfg.image_size), "backbone": "+".join([cfg.backbone, *cfg.ensemble_backbones]),
+                "weights": " + ".join([ckpt.get("weights", ""), *(m.get("weights", "") for m in ckpt.get("mixture", []))]),
                 "target": cfg.target, "outputs": ",".join(ckpt.get("outputs", ["deformed"])),
                 "ensemble": str(cfg.ensemble), "tta_flip": str(cfg.tta_flip).lower(), "crop": cfg.crop,
                 "input": "RGB float32 in [0, 1], NCHW, resized to image_size x image_size"}

@@ -23,13 +23,16 @@ CHUNK = 512  # images whose cached stem activations are held in memory at once
 class Predictor:
     """A trained model in eval mode; ``cfg.image_size`` and ``cfg.threshold`` come from training, and so do the
     test-time options: ``cfg.crop`` crops each image before it is classified, ``cfg.tta_flip`` averages each
-    prediction with its mirror image's (a region map mirrored back first).
+    prediction with its mirror image's (a region map mirrored back first). A model with ``train.ensemble_backbones``
+    predicts the mean of its backbones' models (``others``, each with its own frozen layers and cache) and averages
+    their Grad-CAM maps; its embeddings are the first backbone's.
 
     ``progress``: a progress bar while images go through the frozen layers (None: when stderr is a terminal).
     """
 
     def __init__(self, ckpt: dict, path: Path, progress: bool | None = None):
         self.model, self.cfg = restore(ckpt, path)
+        self.others = [Predictor(entry, path, progress) for entry in ckpt.get("mixture", [])]
         self.device = pick_device(self.cfg.device)
         self.model.to(self.device)
         self.path = path
@@ -80,7 +83,23 @@ class Predictor:
         for flip in (False, True) if self.cfg.tta_flip else (False,):
             out = torch.cat([self.model.outputs(z).cpu() for z in self._stems(paths, flip)]).double()
             views.append(out.flip(-1) if flip and self.target == "localise" else out)
-        return torch.stack(views).mean(0).numpy()
+        own = torch.stack(views).mean(0).numpy()
+        if not self.others:
+            return own
+        return np.mean([own] + [other.predict_outputs(paths) for other in self.others], axis=0)
+
+    def gradcam(self, paths: list[str | Path]) -> np.ndarray:
+        """Grad-CAM heatmaps (N, h, w) in [0, 1] of P(deformed) (:mod:`deformsim.learn.gradcam`); a mixture's are
+        the mean of its backbones' maps, each resized to the finest of them."""
+        from deformsim.learn.gradcam import gradcam
+
+        maps = [np.concatenate([gradcam(p.model, z) for z in p._stems(paths)]) for p in [self, *self.others]]
+        if not self.others:
+            return maps[0]
+        side = max(m.shape[-1] for m in maps)
+        resized = [torch.nn.functional.interpolate(torch.from_numpy(m)[:, None], size=(side, side), mode="bilinear",
+                                                   align_corners=False)[:, 0].numpy() for m in maps]
+        return np.mean(resized, axis=0)
 
     def predict(self, paths: list[str | Path]) -> tuple[np.ndarray, list[str]]:
         """Probabilities and class names at the training threshold."""

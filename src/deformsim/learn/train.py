@@ -241,14 +241,29 @@ def stalled(history: list[dict], y: torch.Tensor, cfg: TrainConfig) -> str | Non
             "learns at about 0.0001)")
 
 
+@dataclass
+class _Trained:
+    """One backbone's trained model and what its training says."""
+
+    model: DeformNet
+    cfg: TrainConfig
+    weights: str
+    history: list[dict]
+    splits: list[tuple[torch.Tensor, torch.Tensor]]
+    adapted: dict | None
+    ensemble: dict | None
+
+
 def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = True,
         adapt: Path | None = None) -> TrainResult:
     """Train on ``table`` (columns id, path, y), validate on its held-out split, save ``out_dir/model.pt``.
 
     ``adapt``: a folder of unlabelled real photos to adapt to (needs ``train.feature_norm``; labels never read).
     Other targets than ``label`` also need the table's dense columns (:func:`deformsim.learn.targets.check_target`).
+    With ``train.ensemble_backbones`` each further backbone's model trains the same way and is saved beside the first
+    (``mixture``), which then predicts their mean probability.
     """
-    from deformsim.learn.targets import check_target, fit_head, output_names
+    from deformsim.learn.targets import check_target, output_names
 
     check_table(table)
     check_target(table, cfg)
@@ -258,8 +273,43 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     start = time.perf_counter()
     set_threads()
     table = table.reset_index(drop=True)
-    device = pick_device(cfg.device)
     outputs = output_names(table, cfg.target)
+    cfgs = [cfg] + [cfg.model_copy(update={"backbone": b, "ensemble_backbones": []}) for b in cfg.ensemble_backbones]
+    trained = []
+    for c in cfgs:
+        if len(cfgs) > 1:
+            log.info("backbone %s (%d of %d)", c.backbone, len(trained) + 1, len(cfgs))
+        t0 = time.perf_counter()
+        trained.append(_train(table, c, outputs, progress, adapt, adapt_paths))
+        train_rows, val_rows = trained[-1].splits[0]
+        _log_summary(trained[-1].history, c, len(train_rows), len(val_rows), time.perf_counter() - t0)
+    first = trained[0]
+    out_dir = Path(out_dir)
+    model_path = out_dir / checkpoint.MODEL_FILE
+    seconds = time.perf_counter() - start
+    train_rows, val_rows = first.splits[0]
+    ids = [{"train": table["id"].iloc[t.numpy()].tolist(), "val": table["id"].iloc[v.numpy()].tolist()}
+           for t, v in first.splits]
+    split_ids = ids[0] | ({"members": ids} if len(ids) > 1 else {})
+    mixture = [(t.model, t.cfg, t.weights) for t in trained[1:]]
+    checkpoint.save(model_path, first.model, cfg, first.weights, first.history, split_ids,
+                    None if cfg.target == "label" else outputs, mixture=mixture)
+    info = {"weights": first.weights, "seconds": seconds, "history": first.history, "n_train": len(train_rows),
+            "n_val": len(val_rows), "adapted": first.adapted, "ensemble": first.ensemble,
+            "config": cfg.model_dump(mode="json")}
+    if mixture:
+        info["mixture"] = [{"backbone": t.cfg.backbone, "weights": t.weights, "history": t.history,
+                            "adapted": t.adapted, "ensemble": t.ensemble} for t in trained[1:]]
+    write_json(out_dir / "train.json", info)
+    return TrainResult(model_path, first.history, first.weights, seconds)
+
+
+def _train(table: pd.DataFrame, cfg: TrainConfig, outputs: list[str], progress: bool, adapt: Path | None,
+           adapt_paths: list[str]) -> _Trained:
+    """Build and train ``cfg.backbone``'s model (its ``train.ensemble`` members) on ``table``."""
+    from deformsim.learn.targets import fit_head
+
+    device = pick_device(cfg.device)
     model, weights = build(cfg, outputs=len(outputs))
     model.to(device)
     y = torch.tensor(table["y"].to_numpy(dtype="float32"), device=device)
@@ -294,15 +344,4 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
         ensemble = _out_of_bag(nets, inputs, [v for _, v in splits], y, cfg)
         log.info("ensemble of %d: out-of-bag accuracy %s on %d images", len(nets),
                  "-" if ensemble["val_acc"] is None else f"{ensemble['val_acc']:.3f}", ensemble["n_val"])
-    out_dir = Path(out_dir)
-    model_path = out_dir / checkpoint.MODEL_FILE
-    seconds = time.perf_counter() - start
-    _log_summary(history, cfg, len(train_rows), len(val_rows), seconds)
-    ids = [{"train": table["id"].iloc[t.numpy()].tolist(), "val": table["id"].iloc[v.numpy()].tolist()}
-           for t, v in splits]
-    split_ids = ids[0] | ({"members": ids} if len(ids) > 1 else {})
-    checkpoint.save(model_path, model, cfg, weights, history, split_ids, None if cfg.target == "label" else outputs)
-    write_json(out_dir / "train.json", {"weights": weights, "seconds": seconds, "history": history,
-                                        "n_train": len(train_rows), "n_val": len(val_rows), "adapted": adapted,
-                                        "ensemble": ensemble, "config": cfg.model_dump(mode="json")})
-    return TrainResult(model_path, history, weights, seconds)
+    return _Trained(model, cfg, weights, history, splits, adapted, ensemble)
