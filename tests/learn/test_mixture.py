@@ -36,16 +36,21 @@ def mixture_dir(blobs, tmp_path_factory):
 
 
 def test_a_mixture_predicts_the_mean_of_its_backbones_models(mixture_dir, blobs, tmp_path):
-    paths = list(blobs["path"][::8])
+    ckpt, _ = read_checkpoint(mixture_dir)
+    val = blobs[blobs["id"].isin(ckpt["split"]["val"])]  # both backbones' models held out the same images
+    paths = list(val["path"])
     singles = []
     for backbone in ("efficientnet_lite0", "mobilenet_v2"):
         fit(blobs, TrainConfig(**CFG, backbone=backbone), tmp_path / backbone, progress=False)
         singles.append(load(tmp_path / backbone).predict_proba(paths))
     assert not np.allclose(singles[0], singles[1])
-    np.testing.assert_allclose(load(mixture_dir).predict_proba(paths), np.mean(singles, axis=0), atol=1e-6)
+    mean = np.mean(singles, axis=0)
+    np.testing.assert_allclose(load(mixture_dir).predict_proba(paths), mean, atol=1e-6)
     info = json.loads((mixture_dir / "train.json").read_text())
     assert [m["backbone"] for m in info["mixture"]] == ["mobilenet_v2"]
     assert "mobilenet_v2" in info["mixture"][0]["weights"]
+    assert info["mixture_validation"] == {"backbones": 2, "n_val": len(val),
+                                          "val_acc": pytest.approx(np.mean((mean >= 0.5) == val["y"].to_numpy()))}
 
 
 def test_onnx_of_a_mixture_agrees_with_torch(mixture_dir, blobs, tmp_path):

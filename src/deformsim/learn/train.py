@@ -252,6 +252,7 @@ class _Trained:
     splits: list[tuple[torch.Tensor, torch.Tensor]]
     adapted: dict | None
     ensemble: dict | None
+    val_prob: torch.Tensor | None  # P(deformed) of the first split's validation images, in a mixture
 
 
 def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = True,
@@ -280,7 +281,7 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
         if len(cfgs) > 1:
             log.info("backbone %s (%d of %d)", c.backbone, len(trained) + 1, len(cfgs))
         t0 = time.perf_counter()
-        trained.append(_train(table, c, outputs, progress, adapt, adapt_paths))
+        trained.append(_train(table, c, outputs, progress, adapt, adapt_paths, len(cfgs) > 1))
         train_rows, val_rows = trained[-1].splits[0]
         _log_summary(trained[-1].history, c, len(train_rows), len(val_rows), time.perf_counter() - t0)
     first = trained[0]
@@ -288,6 +289,13 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     model_path = out_dir / checkpoint.MODEL_FILE
     seconds = time.perf_counter() - start
     train_rows, val_rows = first.splits[0]
+    mixed = None
+    if len(trained) > 1 and len(val_rows):
+        pred = (torch.stack([t.val_prob for t in trained]).mean(0) >= cfg.threshold).float().cpu()
+        y = torch.tensor(table["y"].to_numpy(dtype="float32"))[val_rows]
+        mixed = {"backbones": len(trained), "val_acc": float((pred == y).float().mean()), "n_val": len(val_rows)}
+        log.info("%d backbones together: validation accuracy %.3f (%d images)", len(trained), mixed["val_acc"],
+                 len(val_rows))
     ids = [{"train": table["id"].iloc[t.numpy()].tolist(), "val": table["id"].iloc[v.numpy()].tolist()}
            for t, v in first.splits]
     split_ids = ids[0] | ({"members": ids} if len(ids) > 1 else {})
@@ -300,13 +308,15 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     if mixture:
         info["mixture"] = [{"backbone": t.cfg.backbone, "weights": t.weights, "history": t.history,
                             "adapted": t.adapted, "ensemble": t.ensemble} for t in trained[1:]]
+        info["mixture_validation"] = mixed
     write_json(out_dir / "train.json", info)
     return TrainResult(model_path, first.history, first.weights, seconds)
 
 
 def _train(table: pd.DataFrame, cfg: TrainConfig, outputs: list[str], progress: bool, adapt: Path | None,
-           adapt_paths: list[str]) -> _Trained:
-    """Build and train ``cfg.backbone``'s model (its ``train.ensemble`` members) on ``table``."""
+           adapt_paths: list[str], score_val: bool = False) -> _Trained:
+    """Build and train ``cfg.backbone``'s model (its ``train.ensemble`` members) on ``table``; ``score_val``: keep
+    its probabilities on the first split's validation images."""
     from deformsim.learn.targets import fit_head
 
     device = pick_device(cfg.device)
@@ -344,4 +354,9 @@ def _train(table: pd.DataFrame, cfg: TrainConfig, outputs: list[str], progress: 
         ensemble = _out_of_bag(nets, inputs, [v for _, v in splits], y, cfg)
         log.info("ensemble of %d: out-of-bag accuracy %s on %d images", len(nets),
                  "-" if ensemble["val_acc"] is None else f"{ensemble['val_acc']:.3f}", ensemble["n_val"])
-    return _Trained(model, cfg, weights, history, splits, adapted, ensemble)
+    val_prob = None
+    if score_val and len(val_rows):
+        model.eval()
+        with torch.no_grad():
+            val_prob = torch.cat([model.outputs(inputs.all(b, cfg.batch_size)) for b in val_rows.split(cfg.batch_size)])
+    return _Trained(model, cfg, weights, history, splits, adapted, ensemble, val_prob)
