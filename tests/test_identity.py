@@ -15,7 +15,7 @@ import pytest
 from deformsim.config import Config, load_config
 from deformsim.generate import stage as gen_stage
 from deformsim.generate.identity import data_name, data_settings
-from deformsim.identity import NEVER, WHEN_SET, digest, file_digest, files_digest, folder_digest, rule_of, when
+from deformsim.identity import BY_CONTENT, NEVER, WHEN_SET, digest, file_digest, files_digest, folder_digest, rule_of, when
 from deformsim.pipeline import run
 from tests.generate.fakes import use_fakes
 from tests.util import CARTON_SPEC
@@ -109,6 +109,19 @@ def test_dataset_name_follows_mesh_and_spec_contents(part):
     assert second != first
     mesh.write_bytes(b"solid wider part\n" + b"\1" * 200)
     assert data_name(cfg) not in (first, second)
+
+
+def test_the_same_files_by_other_paths_name_the_same_dataset(part, tmp_path, monkeypatch):
+    mesh, spec = part
+    first = data_name(load_config("quick", {"object.mesh": mesh, "object.spec": spec}))
+    monkeypatch.chdir(tmp_path)  # relative paths to the same files
+    assert data_name(load_config("quick", {"object.mesh": mesh.name, "object.spec": spec.name})) == first
+    moved = tmp_path / "moved"
+    moved.mkdir()
+    shutil.copytree(tmp_path, moved / "project", ignore=shutil.ignore_patterns("moved"))
+    assert data_name(load_config("quick", {"object.mesh": moved / "project" / mesh.name,
+                                           "object.spec": moved / "project" / spec.name})) == first
+    assert rule_of(type(Config().object), "mesh") == rule_of(type(Config().lighting), "hdri_dir") == BY_CONTENT
 
 
 @pytest.fixture

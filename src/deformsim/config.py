@@ -93,8 +93,9 @@ class ShapesConfig(_Model):
 class ObjectConfig(_Model):
     """What is rendered: the built-in can or a user mesh, and its deformation spec."""
 
-    mesh: Path | None = Field(None, description="CAD mesh (stl/obj/ply/glb/gltf/fbx); null = built-in can")
-    spec: Path | None = Field(None, description="deformation spec YAML; null = built-in can spec")
+    mesh: Annotated[Path | None, identity.BY_CONTENT] = Field(None, description="CAD mesh (stl/obj/ply/glb/gltf/fbx); null = built-in can")
+    spec: Annotated[Path | None, identity.BY_CONTENT] = Field(
+        None, description="deformation spec YAML; null = built-in can spec")
     shapes: Annotated[ShapesConfig | None, identity.WHEN_SET] = Field(
         None, description="the part's shape drawn per sample (can sizes, per-axis scale, taper, bulge); null = "
         "the part as built"
@@ -240,7 +241,8 @@ class AreaLightsConfig(_Model):
 class LightingConfig(_Model):
     """HDRI world lighting: a random EXR at a random rotation; optional area lights on top."""
 
-    hdri_dir: Path | None = Field(None, description="folder of .exr/.hdr files; null = Blender's studiolights")
+    hdri_dir: Annotated[Path | None, identity.BY_CONTENT] = Field(
+        None, description="folder of .exr/.hdr files; null = Blender's studiolights")
     hdris: Annotated[list[str] | None, identity.WHEN_SET] = Field(
         None, min_length=1, description="draw only these HDRIs (file names without extension, e.g. [interior, "
         "studio] of Blender's); null = every HDRI found"
@@ -322,7 +324,8 @@ class SurfaceConfig(_Model):
         ["wood", "paper", "concrete", "metal", "cloth", "conveyor"], min_length=1,
         description="surface kinds drawn per sample (procedural materials; photo: a picture from photos)",
     )
-    photos: Path | None = Field(None, description="folder of texture photos (table tops, floors) for kind photo")
+    photos: Annotated[Path | None, identity.BY_CONTENT] = Field(
+        None, description="folder of texture photos (table tops, floors) for kind photo")
     scale: Annotated[Range, Within(hi=100, above=0)] = Field(
         (0.6, 1.6), description="texture scale: 1 = wood grain, weave, ridges at a real part's size"
     )
@@ -353,7 +356,7 @@ class AppearanceConfig(_Model):
     designer: bool = Field(
         True, description="built-in can: the label designer; false: the plain label (flat fields, a word, a barcode)"
     )
-    photos: Path | None = Field(
+    photos: Annotated[Path | None, identity.BY_CONTENT] = Field(
         None, description="folder of images used as artwork: the can's label, or a mesh's texture (box-projected), "
         "in a share photo_share of samples"
     )

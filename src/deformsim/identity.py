@@ -68,12 +68,15 @@ class Rule:
 
     ``never``: it does not change the output (a worker count, a later stage's settings). ``when_set``: it counts
     only away from its default, so an option whose default changes nothing keeps every identity as it is.
-    ``when``: it counts only while the sibling field ``when[0]`` holds the value ``when[1]``.
+    ``when``: it counts only while the sibling field ``when[0]`` holds the value ``when[1]``. ``content``: a path
+    whose files the output's inputs name by their bytes; it counts as set or not, never by the path itself, so the
+    same files reached by another path (relative or absolute, a moved folder) make the same output.
     """
 
     never: bool = False
     when_set: bool = False
     when: tuple[str, object] | None = None
+    content: bool = False
 
     def counts(self, model: BaseModel, value: object, default: object) -> bool:
         if self.never or (self.when_set and value == default):
@@ -84,6 +87,7 @@ class Rule:
 ALWAYS = Rule()
 NEVER = Rule(never=True)
 WHEN_SET = Rule(when_set=True)
+BY_CONTENT = Rule(content=True)
 
 
 def when(**sibling: object) -> Rule:
@@ -106,7 +110,11 @@ def settings(model: BaseModel) -> dict:
 def _counted(model: BaseModel, dumped: dict) -> dict:
     out = {}
     for name, info in type(model).model_fields.items():
-        value = getattr(model, name)
-        if rule_of(type(model), name).counts(model, value, info.default):
-            out[name] = _counted(value, dumped[name]) if isinstance(value, BaseModel) else dumped[name]
+        value, rule = getattr(model, name), rule_of(type(model), name)
+        if not rule.counts(model, value, info.default):
+            continue
+        if isinstance(value, BaseModel):
+            out[name] = _counted(value, dumped[name])
+        else:
+            out[name] = "set" if rule.content and value is not None else dumped[name]
     return out
