@@ -93,7 +93,8 @@ class ShapesConfig(_Model):
 class ObjectConfig(_Model):
     """What is rendered: the built-in can or a user mesh, and its deformation spec."""
 
-    mesh: Annotated[Path | None, identity.BY_CONTENT] = Field(None, description="CAD mesh (stl/obj/ply/glb/gltf/fbx); null = built-in can")
+    mesh: Annotated[Path | None, identity.BY_CONTENT] = Field(
+        None, description="CAD mesh (stl/obj/ply/glb/gltf/fbx); null = built-in can")
     spec: Annotated[Path | None, identity.BY_CONTENT] = Field(
         None, description="deformation spec YAML; null = built-in can spec")
     shapes: Annotated[ShapesConfig | None, identity.WHEN_SET] = Field(

@@ -13,11 +13,15 @@ from __future__ import annotations
 from datetime import datetime, timezone
 
 import numpy as np
+from pydantic import ValidationError
 
+from deformsim.config import Config
 from deformsim.errors import UserError
 from deformsim.evaluate.benchmark import aggregate
 from deformsim.evaluate.metrics import compute_metrics
 from deformsim.evaluate.paired import METRICS, check_same_photos, ensembles, run_key
+from deformsim.identity import settings
+from deformsim.schema import clip, shown
 
 
 def _named(key: tuple) -> str:
@@ -55,10 +59,37 @@ def _results(inputs: list[dict], runs: list[dict], sources: list[str], how: str)
     return out
 
 
+def _config(results: dict, source: str) -> dict:
+    """What a benchmark's runs were made with, less the seeds that tell draws apart; paths count as set or not, their
+    files by content (:func:`deformsim.identity.settings`)."""
+    try:
+        cfg = Config.model_validate(results["settings"])
+    except ValidationError as exc:
+        raise UserError(f"{source}: its settings are no config of this version ({clip(str(exc).splitlines()[1], 80)})"
+                        ) from None
+    data = settings(cfg)
+    data["generate"].pop("seed", None)
+    composite = cfg.composite.model_dump(mode="json") | {"backgrounds": cfg.composite.backgrounds is not None}
+    return {**data, "composite": composite, "train": cfg.train.model_dump(mode="json", exclude={"seed"})}
+
+
+def _difference(a, b, prefix: str = "") -> str | None:
+    """The first setting whose values differ, as ``key: a against b``."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return next((d for k in sorted(set(a) | set(b)) if (d := _difference(a.get(k), b.get(k), f"{prefix}{k}."))),
+                    None)
+    return None if a == b else f"{prefix.rstrip('.')}: {shown(a, 40)} against {shown(b, 40)}"
+
+
 def merge(inputs: list[dict], sources: list[str]) -> dict:
     """The runs of every benchmark in ``inputs`` (named by ``sources``) as one benchmark's results; one line when two
-    hold the same run (the same variant and seeds: they would count twice)."""
+    were made with other settings (but for their seeds) or hold the same run (they would count twice)."""
     _checked(inputs, sources)
+    first = _config(inputs[0], sources[0])
+    for results, source in zip(inputs[1:], sources[1:]):
+        if diff := _difference(first, _config(results, source)):
+            raise UserError(f"{source} was made with other settings than {sources[0]} ({diff}): merge the draws of "
+                            "one config (it may differ in generate.seed and train.seed only)")
     seen: dict[tuple, str] = {}
     for results, source in zip(inputs, sources):
         for run in results["runs"]:
@@ -81,12 +112,12 @@ def mean(inputs: list[dict], sources: list[str]) -> dict:
         if not all(key in other for other in by_key[1:]):
             continue
         members = [found[key] for found in by_key]
-        prob = np.mean([m["real_predictions"] for m in members], axis=0)
-        m = compute_metrics(y, prob, threshold)
+        prob = np.mean([member["real_predictions"] for member in members], axis=0)
+        metrics = compute_metrics(y, prob, threshold)
         runs.append({
             "variant": run["variant"], "data_seed": run["data_seed"], "composite_seed": run["composite_seed"],
             "train_seed": run["train_seed"], "model": [member["model"] for member in members],
-            "real": {k: m[k] for k in METRICS} | {"confusion": m["confusion"]["matrix"]},
+            "real": {k: metrics[k] for k in METRICS} | {"confusion": metrics["confusion"]["matrix"]},
             "synthetic": {k: float(np.mean([member["synthetic"][k] for member in members])) for k in ("accuracy", "f1")},
             "real_predictions": [float(p) for p in prob],
         })
