@@ -97,3 +97,27 @@ def test_a_variant_composited_before_the_dataset_grew_is_composited_again(tmp_pa
     make_dense_dataset(data, n_samples=6, dense=False)
     _composite_once(data, comp, "procedural-x-seed0", 0, progress=False)
     assert len(pd.read_parquet(manifest)) == 12
+
+
+def test_a_variant_is_composited_again_when_a_background_photo_changes(tmp_path):
+    """The same folder of background photos, one photo edited: the benchmark's variant is not reused."""
+    from PIL import Image
+
+    from deformsim.config import CompositeConfig
+    from deformsim.evaluate.benchmark import _composite_once
+    from tests.fake_dense import make_dense_dataset
+
+    data = make_dense_dataset(tmp_path / "data", n_samples=2, dense=False)
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    for i, colour in enumerate(((200, 40, 40), (40, 200, 40))):
+        Image.new("RGB", (96, 96), colour).save(photos / f"{i}.png")
+    comp = CompositeConfig(workers=1, backgrounds=photos)
+    manifest = data / "variants" / "backgrounds-x-seed0" / "manifest.parquet"
+    _composite_once(data, comp, "backgrounds-x-seed0", 0, progress=False)
+    first = manifest.stat().st_mtime_ns
+    _composite_once(data, comp, "backgrounds-x-seed0", 0, progress=False)
+    assert manifest.stat().st_mtime_ns == first  # the same photos: reused
+    Image.new("RGB", (96, 96), (40, 40, 200)).save(photos / "1.png")
+    _composite_once(data, comp, "backgrounds-x-seed0", 0, progress=False)
+    assert manifest.stat().st_mtime_ns != first

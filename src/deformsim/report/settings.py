@@ -41,8 +41,8 @@ def _flow(value) -> str:
 
 
 def _compositing(record: dict) -> dict:
-    """A variant's ``composite.json`` less its name and seed."""
-    return {k: v for k, v in record.items() if k not in ("name", "seed")}
+    """A variant's ``composite.json`` less its name, seed and background photos' digest: its settings."""
+    return {k: v for k, v in record.items() if k not in ("name", "seed", "backgrounds_digest")}
 
 
 def used_settings(metrics: dict) -> dict:
