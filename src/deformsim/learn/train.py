@@ -281,7 +281,8 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
         if len(cfgs) > 1:
             log.info("backbone %s (%d of %d)", c.backbone, len(trained) + 1, len(cfgs))
         t0 = time.perf_counter()
-        trained.append(_train(table, c, outputs, progress, adapt, adapt_paths, len(cfgs) > 1))
+        # a mixture's own validation score: ensemble members trained on each other's held-out images, so not theirs
+        trained.append(_train(table, c, outputs, progress, adapt, adapt_paths, len(cfgs) > 1 and cfg.ensemble == 1))
         train_rows, val_rows = trained[-1].splits[0]
         _log_summary(trained[-1].history, c, len(train_rows), len(val_rows), time.perf_counter() - t0)
     first = trained[0]
@@ -290,7 +291,7 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     seconds = time.perf_counter() - start
     train_rows, val_rows = first.splits[0]
     mixed = None
-    if len(trained) > 1 and len(val_rows):
+    if first.val_prob is not None:
         pred = (torch.stack([t.val_prob for t in trained]).mean(0) >= cfg.threshold).float().cpu()
         y = torch.tensor(table["y"].to_numpy(dtype="float32"))[val_rows]
         mixed = {"backbones": len(trained), "val_acc": float((pred == y).float().mean()), "n_val": len(val_rows)}
