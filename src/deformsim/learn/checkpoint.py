@@ -76,12 +76,14 @@ def read_checkpoint(model_path: str | Path) -> tuple[dict, Path]:
     mixture = ckpt.get("mixture", [])
     if not isinstance(mixture, list):
         raise UserError(f"{path} is not a deformsim model: its mixture is not a list of models")
+    backbones = []
     for k, entry in enumerate(mixture):
         other = _check_model(entry, f"{path} (mixture model {k + 1})")
         if other != cfg.model_copy(update={"backbone": other.backbone, "ensemble_backbones": []}):
             raise UserError(f"{path} is not a deformsim model: its mixture model {k + 1} was trained otherwise than "
                             "the first (their configs differ in more than the backbone)")
-    if [saved_config(e).backbone for e in mixture] != cfg.ensemble_backbones:
+        backbones.append(other.backbone)
+    if backbones != cfg.ensemble_backbones:
         raise UserError(f"{path} is not a deformsim model: its mixture holds other backbones than its "
                         f"train.ensemble_backbones ({', '.join(cfg.ensemble_backbones) or 'none'})")
     outputs = ckpt.get("outputs")
