@@ -21,7 +21,7 @@ from deformsim.config import Config
 from deformsim.errors import UserError
 from deformsim.generate.identity import data_identity
 from deformsim.generate.stage import prepare
-from deformsim.identity import digest, files_digest
+from deformsim.identity import digest
 from deformsim.log import get_logger
 from deformsim.outputs import check_apart, check_folder_target, check_outside, kinds_in, sweep
 from deformsim.report.stage import make_report, real_digest
@@ -73,8 +73,8 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     ``overwrite``: a dataset folder that cannot be resumed (it holds more samples than ``generate.n``) is
     rendered again from scratch instead of refused.
     """
+    from deformsim.composite.backgrounds import photos_digest
     from deformsim.composite.stage import composite
-    from deformsim.dataset.images import images_in
     from deformsim.generate.stage import generate
 
     out = check_folder_target(out, "--out")
@@ -94,7 +94,7 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     backgrounds = cfg.composite.backgrounds
     if backgrounds is not None and not Path(backgrounds).is_dir():
         raise UserError(f"backgrounds folder not found: {backgrounds}")
-    photos_id = files_digest(images_in(Path(backgrounds)), backgrounds) if backgrounds is not None else None
+    photos_id = photos_digest(backgrounds)
     out.mkdir(parents=True, exist_ok=True)
     sweep(data)  # what a killed --overwrite left of it (the report's go with its replacing)
     stages = Stages(out)

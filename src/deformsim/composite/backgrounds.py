@@ -16,6 +16,7 @@ from PIL import Image
 
 from deformsim.dataset.images import IMAGE_EXTS, images_in, open_rgb
 from deformsim.errors import UserError
+from deformsim.identity import files_digest
 
 PROCEDURAL_KINDS = ("gradient", "noise", "shapes", "texture")
 MAX_KEY_DOMINANCE = 96  # procedural colours never look like a green screen (g - max(r, b) stays below)
@@ -23,6 +24,11 @@ MAX_KEY_DOMINANCE = 96  # procedural colours never look like a green screen (g -
 
 class BackgroundWarning(UserWarning):
     """A background file was skipped."""
+
+
+def photos_digest(folder: str | Path | None) -> str | None:
+    """The contents of the photos under ``folder`` (their names in it and their bytes); None without a folder."""
+    return files_digest(images_in(Path(folder)), folder) if folder is not None and Path(folder).is_dir() else None
 
 
 def scan_backgrounds(folder: str | Path) -> list[Path]:

@@ -35,6 +35,7 @@ from deformsim.composite.backgrounds import (
     PROCEDURAL_KINDS,
     fit,
     load_photo,
+    photos_digest,
     procedural,
     scan_backgrounds,
     warn_skipped,
@@ -44,12 +45,10 @@ from deformsim.composite.framing import frame_matrix, warp
 from deformsim.composite.maps import MAP_KINDS, move_maps, read_maps, write_maps
 from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inrange_matte
 from deformsim.config import CompositeConfig
-from deformsim.dataset.images import images_in
 from deformsim.dataset.layout import RENDER_KINDS, SHADOW_KIND, SURFACE_KIND, Layout, image_id
 from deformsim.dataset.manifest import read_manifest
 from deformsim.dataset.variants import VARIANT_MANIFEST
 from deformsim.errors import UserError
-from deformsim.identity import files_digest
 from deformsim.log import progress_bar
 from deformsim.parallel import die_with_parent, owner_gone, owner_tag, worker_count
 from deformsim.sampling.streams import stable_int, stream
@@ -66,9 +65,7 @@ SETTINGS_FILE = "composite.json"
 def variant_settings(name: str, seed: int, cfg: CompositeConfig) -> dict:
     """What a variant's ``composite.json`` records: its name, seed and compositing settings, and the contents of the
     background photos (``backgrounds_digest``), so that a changed photo is never taken for the one composited."""
-    folder = cfg.backgrounds
-    photos = files_digest(images_in(Path(folder)), folder) if folder is not None and Path(folder).is_dir() else None
-    return {"name": name, "seed": seed, **cfg.model_dump(mode="json"), "backgrounds_digest": photos}
+    return {"name": name, "seed": seed, **cfg.model_dump(mode="json"), "backgrounds_digest": photos_digest(cfg.backgrounds)}
 
 
 def default_name(cfg: CompositeConfig) -> str:
