@@ -161,10 +161,11 @@ def check_outside(out: str | Path, flag: str, folders: dict[str, str | Path | No
             raise UserError(f"{flag} {out} is or lies inside the {what} {path}: choose an output folder outside it")
 
 
-def _differences(a, b, prefix: str = "") -> list[tuple[str, object, object]]:
+def differences(a, b, prefix: str = "") -> list[tuple[str, object, object]]:
+    """Every leaf where the nested dicts ``a`` and ``b`` differ, as (dotted key, value in a, value in b), keys sorted."""
     if isinstance(a, dict) and isinstance(b, dict):
         return [d for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)
-                for d in _differences(a.get(k), b.get(k), f"{prefix}{k}.")]
+                for d in differences(a.get(k), b.get(k), f"{prefix}{k}.")]
     return [(prefix.rstrip(".") or "inputs", a, b)]
 
 
@@ -174,7 +175,7 @@ def _is_digest(v) -> bool:
 
 def _first_difference(a, b) -> str:
     """The most readable difference: a changed setting before a changed content digest."""
-    diffs = _differences(a, b)
+    diffs = differences(a, b)
     key, old, new = next((d for d in diffs if not (_is_digest(d[1]) or _is_digest(d[2]))), diffs[0])
     if _is_digest(old) and _is_digest(new):
         return f"{key}: other contents"

@@ -21,6 +21,7 @@ from deformsim.evaluate.benchmark import aggregate
 from deformsim.evaluate.metrics import compute_metrics
 from deformsim.evaluate.paired import METRICS, check_same_photos, ensembles, run_key
 from deformsim.identity import settings
+from deformsim.outputs import differences
 from deformsim.schema import clip, shown
 
 
@@ -73,23 +74,17 @@ def _config(results: dict, source: str) -> dict:
     return {**data, "composite": composite, "train": cfg.train.model_dump(mode="json", exclude={"seed"})}
 
 
-def _difference(a, b, prefix: str = "") -> str | None:
-    """The first setting whose values differ, as ``key: a against b``."""
-    if isinstance(a, dict) and isinstance(b, dict):
-        return next((d for k in sorted(set(a) | set(b)) if (d := _difference(a.get(k), b.get(k), f"{prefix}{k}."))),
-                    None)
-    return None if a == b else f"{prefix.rstrip('.')}: {shown(a, 40)} against {shown(b, 40)}"
-
-
 def merge(inputs: list[dict], sources: list[str]) -> dict:
     """The runs of every benchmark in ``inputs`` (named by ``sources``) as one benchmark's results; one line when two
     were made with other settings (but for their seeds) or hold the same run (they would count twice)."""
     _checked(inputs, sources)
     first = _config(inputs[0], sources[0])
     for results, source in zip(inputs[1:], sources[1:]):
-        if diff := _difference(first, _config(results, source)):
-            raise UserError(f"{source} was made with other settings than {sources[0]} ({diff}): merge the draws of "
-                            "one config (it may differ in generate.seed and train.seed only)")
+        if diffs := differences(first, _config(results, source)):
+            key, a, b = diffs[0]
+            raise UserError(f"{source} was made with other settings than {sources[0]} ({key}: {shown(a, 40)} against "
+                            f"{shown(b, 40)}): merge the draws of one config (it may differ in generate.seed and "
+                            "train.seed only)")
     seen: dict[tuple, str] = {}
     for results, source in zip(inputs, sources):
         for run in results["runs"]:
