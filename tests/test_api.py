@@ -60,3 +60,28 @@ def test_evaluate_checks_its_output_before_any_work_and_notes_what_it_found(tmp_
     assert notes == []
     with pytest.raises(UserError, match="no intact/"):
         Engine(notify=notes.append).evaluate(tmp_path / "no-model", real=tmp_path)
+
+
+def test_generate_says_which_composited_variants_the_grown_dataset_left_behind(tiny_dataset, tmp_path, caplog):
+    """More samples into a composited dataset: the variant holds the old images only. ``deformsim generate`` says so;
+    the stage alone does not, as ``deformsim run`` and the benchmark composite the variant again right after."""
+    import shutil
+
+    from deformsim.generate.stage import generate
+    from tests.util import TINY
+
+    def variant_warnings() -> list[str]:
+        return [r.getMessage() for r in caplog.records if r.levelname == "WARNING" and "variant" in r.getMessage()]
+
+    data = tmp_path / "data"
+    shutil.copytree(tiny_dataset, data)
+    Engine("quick", TINY).composite(data, name="old")
+    generate(load_config("quick", {**TINY, "generate.n": 12}), data, progress=False)
+    assert variant_warnings() == []
+    Engine("quick", {**TINY, "generate.n": 12}).generate(data)  # nothing left to render
+    assert variant_warnings() == ["variant old holds other images than the dataset's 12 now: rerun deformsim "
+                                  "composite to update it"]
+    caplog.clear()
+    Engine("quick", TINY).composite(data, name="old")
+    Engine("quick", {**TINY, "generate.n": 12}).generate(data)
+    assert variant_warnings() == []

@@ -21,11 +21,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from deformsim.config import Config, apply_overrides, load_config, validate_config
+from deformsim.log import get_logger
 
 if TYPE_CHECKING:
     from deformsim.evaluate.benchmark import Plan
     from deformsim.learn.finetune import Recipe
     from deformsim.spec.model import Spec
+
+log = get_logger(__name__)
 
 
 @dataclass(frozen=True)
@@ -75,11 +78,16 @@ class Engine:
         A dataset of other settings or inputs in ``out`` is refused unless ``overwrite`` (then replaced whole); more
         than ``config.CONFIRM_IMAGES`` images unless ``yes``.
         """
+        from deformsim.dataset.variants import stale_variants
         from deformsim.generate.refusals import check_plan
         from deformsim.generate.stage import generate
 
         check_plan(self.config, yes)
-        return generate(self.config, Path(out), progress=self.progress, overwrite=overwrite)
+        result = generate(self.config, Path(out), progress=self.progress, overwrite=overwrite)
+        for name in stale_variants(out):
+            log.warning("variant %s holds other images than the dataset's %d now: rerun deformsim composite to "
+                        "update it", name, result.images)
+        return result
 
     def bake(self, force: bool = False) -> Path:
         """Simulate the spec's ``simulation:`` scenarios into the cached bank (reused when cached; ``force``

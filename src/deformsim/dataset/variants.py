@@ -51,6 +51,11 @@ def is_current(root: str | Path, name: str) -> bool:
     return True
 
 
+def stale_variants(root: str | Path) -> list[str]:
+    """The composited variants of the dataset in ``root`` that no longer hold exactly its images (it grew since)."""
+    return [name for name in list_variants(root) if name not in RENDER_KINDS and not is_current(root, name)]
+
+
 def has_own_maps(root: str | Path, name: str) -> bool:
     """Whether composited variant ``name`` carries its own moved dense maps (``deformsim composite`` of a dense
     dataset writes mask, deform and region together); render variants use the render's maps."""
@@ -77,8 +82,6 @@ def _checked_variant(layout: Layout, manifest: pd.DataFrame, name: str) -> pd.Da
                         f"the dataset {len(manifest)} ({len(ids - own)} of them not in the variant); rerun "
                         f"deformsim composite {layout.root} --name {name} with the settings in its composite.json")
     return v
-
-
 
 
 def _absolute(df: pd.DataFrame, root: Path) -> pd.DataFrame:

@@ -174,7 +174,6 @@ def generate(cfg: Config, out: str | Path, progress: bool = True,
         raise ResourceError(f"no sample could be rendered (e.g. {first[:200]}); see {out / 'failures.json'} "
                             f"and {out / 'logs'}")
     consolidate(layout, done)
-    _warn_stale_variants(layout, len(done) * views)
     if cfg.generate.preview:
         from deformsim.dataset.contact_sheet import contact_sheet
 
@@ -182,19 +181,3 @@ def generate(cfg: Config, out: str | Path, progress: bool = True,
     result.images = len(done) * views
     result.seconds = time.perf_counter() - t0
     return result
-
-
-def _warn_stale_variants(layout: Layout, images: int) -> None:
-    """Composited variants made before the dataset grew cover only part of it: say so."""
-    import pyarrow.parquet as pq
-
-    from deformsim.dataset.variants import VARIANT_MANIFEST
-
-    for manifest in sorted((layout.root / "variants").glob(f"*/{VARIANT_MANIFEST}")):
-        try:
-            rows = pq.ParquetFile(manifest).metadata.num_rows
-        except Exception:  # pyarrow raises several types for corrupt files
-            continue
-        if rows != images:
-            log.warning("variant %s holds %d of the %d images: rerun deformsim composite to update it",
-                        manifest.parent.name, rows, images)
