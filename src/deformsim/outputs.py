@@ -173,7 +173,7 @@ def _is_digest(v) -> bool:
     return isinstance(v, str) and len(v) >= 12 and all(c in "0123456789abcdef" for c in v)
 
 
-def _first_difference(a, b) -> str:
+def first_difference(a, b) -> str:
     """The most readable difference: a changed setting before a changed content digest."""
     diffs = differences(a, b)
     key, old, new = next((d for d in diffs if not (_is_digest(d[1]) or _is_digest(d[2]))), diffs[0])
@@ -204,7 +204,7 @@ def claim(out: str | Path, kind: str, identity: dict, overwrite: bool, flag: str
         raise UserError(f"{flag} {out} holds a {kind} whose settings were not recorded: pass --overwrite to "
                         "replace it, or choose another folder")
     if old != {"kind": kind, **identity}:
-        diff = _first_difference(old, {"kind": kind, **identity})
+        diff = first_difference(old, {"kind": kind, **identity})
         raise UserError(f"{flag} {out} holds a {kind} made with other settings ({diff}): pass --overwrite to "
                         "replace it, or choose another folder")
     return True

@@ -7,6 +7,7 @@ Renders come from fake workers (tests/generate/fakes.py): the driver's behaviour
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -75,6 +76,9 @@ def test_run_settings_may_change_on_resume_and_a_counted_one_may_not(monkeypatch
     assert generate(more, out, progress=False).rendered == 1  # resumed: the settings that count are the same
     with pytest.raises(UserError, match=r"other settings \(camera.offset: None there, 0.1 now\)"):
         generate(cfg_for(n=8, **{"camera.offset": 0.1}), out, progress=False)
+    with pytest.raises(UserError) as refused:  # a whole section switched on: named, its value cut short
+        generate(cfg_for(n=8, **{"object.shapes": {}}), out, progress=False)
+    assert re.search(r"other settings \(object.shapes: None there, \{.{10,60}\.\.\. now\)", str(refused.value))
 
 
 def test_a_changed_spec_is_refused(monkeypatch, tmp_path, carton_part):
