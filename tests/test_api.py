@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import re
+import shutil
 
 import pytest
 
 from deformsim import Engine
 from deformsim.config import load_config
 from deformsim.errors import UserError
-from tests.util import ROOT
+from tests.util import ROOT, TINY
 
 
 def readme_example() -> str:
@@ -65,10 +66,7 @@ def test_evaluate_checks_its_output_before_any_work_and_notes_what_it_found(tmp_
 def test_generate_says_which_composited_variants_the_grown_dataset_left_behind(tiny_dataset, tmp_path, caplog):
     """More samples into a composited dataset: the variant holds the old images only. ``deformsim generate`` says so;
     the stage alone does not, as ``deformsim run`` and the benchmark composite the variant again right after."""
-    import shutil
-
     from deformsim.generate.stage import generate
-    from tests.util import TINY
 
     def variant_warnings() -> list[str]:
         return [r.getMessage() for r in caplog.records if r.levelname == "WARNING" and "variant" in r.getMessage()]
