@@ -70,6 +70,19 @@ def aggregate(runs: list[dict]) -> dict[str, dict]:
     return out
 
 
+def run_record(key: tuple, model, y: np.ndarray, prob: np.ndarray, threshold: float, synthetic: dict) -> dict:
+    """One run as ``results.json`` holds it: its variant and seeds (``key``, as :func:`deformsim.evaluate.paired.run_key`
+    gives them), its model, the real metrics and predictions ``prob`` at ``threshold``, and its synthetic accuracy and
+    F1."""
+    from deformsim.evaluate.metrics import compute_metrics
+
+    real = compute_metrics(y, prob, threshold)
+    variant, data_seed, composite_seed, train_seed = key
+    return {"variant": variant, "data_seed": data_seed, "composite_seed": composite_seed, "train_seed": train_seed,
+            "model": model, "real": {k: real[k] for k in REAL_METRICS} | {"confusion": real["confusion"]["matrix"]},
+            "synthetic": {k: synthetic[k] for k in ("accuracy", "f1")}, "real_predictions": [float(p) for p in prob]}
+
+
 def _draws(variant: str, plan: Plan) -> range:
     return range(1) if variant in RENDERED else range(plan.composite_seeds)
 
@@ -156,15 +169,9 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
                     synth = compute_metrics(test_df["y"].to_numpy(), predictor.predict_proba(list(test_df["path"])),
                                             train_cfg.threshold)
                     prob = predictor.predict_proba(list(real_df["path"]))
-                    real_m = compute_metrics(real_df["y"].to_numpy(), prob, train_cfg.threshold)
-                    runs.append({
-                        "variant": variant, "data_seed": cfg_d.generate.seed,
-                        "composite_seed": c if variant not in RENDERED else None, "train_seed": train_cfg.seed,
-                        "model": str(model_dir),
-                        "real": {k: real_m[k] for k in REAL_METRICS} | {"confusion": real_m["confusion"]["matrix"]},
-                        "synthetic": {k: synth[k] for k in ("accuracy", "f1")},
-                        "real_predictions": [float(p) for p in prob],
-                    })
+                    key = (variant, cfg_d.generate.seed, c if variant not in RENDERED else None, train_cfg.seed)
+                    runs.append(run_record(key, str(model_dir), real_df["y"].to_numpy(), prob, train_cfg.threshold,
+                                           synth))
     share = float(real_df["y"].mean())
     results = {
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),

@@ -17,9 +17,8 @@ from pydantic import ValidationError
 
 from deformsim.config import Config
 from deformsim.errors import UserError
-from deformsim.evaluate.benchmark import aggregate
-from deformsim.evaluate.metrics import compute_metrics
-from deformsim.evaluate.paired import METRICS, check_same_photos, ensembles, run_key
+from deformsim.evaluate.benchmark import aggregate, run_record
+from deformsim.evaluate.paired import check_same_photos, ensembles, run_key
 from deformsim.identity import settings
 from deformsim.outputs import differences
 from deformsim.schema import clip, shown
@@ -103,19 +102,13 @@ def mean(inputs: list[dict], sources: list[str]) -> dict:
     threshold = _threshold(inputs[0])
     by_key = [{run_key(r): r for r in results["runs"]} for results in inputs]
     runs = []
-    for key, run in by_key[0].items():
+    for key in by_key[0]:
         if not all(key in other for other in by_key[1:]):
             continue
         members = [found[key] for found in by_key]
         prob = np.mean([member["real_predictions"] for member in members], axis=0)
-        metrics = compute_metrics(y, prob, threshold)
-        runs.append({
-            "variant": run["variant"], "data_seed": run["data_seed"], "composite_seed": run["composite_seed"],
-            "train_seed": run["train_seed"], "model": [member["model"] for member in members],
-            "real": {k: metrics[k] for k in METRICS} | {"confusion": metrics["confusion"]["matrix"]},
-            "synthetic": {k: float(np.mean([member["synthetic"][k] for member in members])) for k in ("accuracy", "f1")},
-            "real_predictions": [float(p) for p in prob],
-        })
+        synthetic = {k: float(np.mean([member["synthetic"][k] for member in members])) for k in ("accuracy", "f1")}
+        runs.append(run_record(key, [member["model"] for member in members], y, prob, threshold, synthetic))
     if not runs:
         raise UserError(f"no run of {sources[0]} has a run with the same variant and seeds in every other benchmark")
     return _results(inputs, runs, sources, "mean of")
