@@ -559,8 +559,12 @@ class TrainConfig(_Model):
         "cameras stay on one side)"
     )
     augment: bool = Field(False, description="random resized crops, flips and colour jitter while training")
+    random_conv: float = Field(
+        0, ge=0, le=1, description="share of the training images filtered by a random convolution that keeps shapes "
+        "and changes texture and colour (Xu et al. 2021; learn.data.RandomConv)"
+    )
     cache_features: bool = Field(
-        True, description="train on cached activations of the frozen backbone (not with augment)"
+        True, description="train on cached activations of the frozen backbone (not with augment or random_conv)"
     )
     threshold: float = Field(0.5, gt=0, lt=1, description="probability from which an image (or pixel) is deformed")
     variants: list[str] = Field(

@@ -116,4 +116,6 @@ def test_wrong_labels_for_a_target_stop_before_training(dense, tmp_path):
         fit(gone, TrainConfig(**CFG, target="localise"), tmp_path, progress=False)
     with pytest.raises(UserError, match="train.augment"):
         fit(dense, TrainConfig(**CFG, target="localise", augment=True), tmp_path, progress=False)
+    with pytest.raises(UserError, match="train.random_conv"):
+        fit(dense, TrainConfig(**CFG, target="severity", random_conv=0.5), tmp_path, progress=False)
     assert not list(tmp_path.iterdir())

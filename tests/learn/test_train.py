@@ -101,7 +101,8 @@ def test_cache_key_tracks_images_and_weights(blobs, tmp_path):
 def test_uncached_and_augmented_training_run(blobs, tmp_path):
     small = blobs.groupby("y").head(6)
     for cfg in (CFG.model_copy(update={"cache_features": False, "epochs": 1}),
-                CFG.model_copy(update={"augment": True, "epochs": 1})):
+                CFG.model_copy(update={"augment": True, "epochs": 1}),
+                CFG.model_copy(update={"random_conv": 0.5, "augment": True, "epochs": 1})):
         result = fit(small, cfg, tmp_path, progress=False)
         assert np.isfinite(result.history[0]["loss"])
 

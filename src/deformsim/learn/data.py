@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +39,39 @@ def augmenter(size: int):
         v2.RandomApply([v2.GaussianBlur(5, sigma=(0.3, 1.5))], p=1 / 3),
         v2.RandomApply([v2.GaussianNoise(sigma=0.02)], p=1 / 3),
     ])
+
+
+class RandomConv:
+    """Random convolution (Xu et al., ICLR 2021): with probability ``p`` an image (3, H, W) is filtered by a random
+    k x k convolution mixing its channels (k from ``kernels``, He-initialised weights, reflected edges), brought back
+    to the image's own mean and spread, and blended with it by a uniform weight. Shapes stay, local texture and
+    colour change. Draws from torch's seeded global RNG."""
+
+    def __init__(self, p: float, kernels: tuple[int, ...] = (1, 3, 5, 7)):
+        self.p, self.kernels = p, kernels
+
+    def __call__(self, x: torch.Tensor) -> torch.Tensor:
+        if float(torch.rand(())) >= self.p:
+            return x
+        k = self.kernels[int(torch.randint(len(self.kernels), ()))]
+        weight = torch.randn(3, 3, k, k) / math.sqrt(3 * k * k)
+        pad = k // 2
+        padded = torch.nn.functional.pad(x[None], [pad] * 4, mode="reflect") if pad else x[None]
+        y = torch.nn.functional.conv2d(padded, weight)[0]
+        y = (y - y.mean()) / (y.std() + 1e-6) * x.std() + x.mean()
+        alpha = float(torch.rand(()))
+        return (alpha * x + (1 - alpha) * y).clamp_(0, 1)
+
+
+def training_transform(augment: bool, random_conv: float, size: int):
+    """What training images go through: a random convolution in a ``random_conv`` share of them, then with ``augment``
+    :func:`augmenter`; None when neither is on."""
+    steps = ([RandomConv(random_conv)] if random_conv else []) + ([augmenter(size)] if augment else [])
+    if not steps:
+        return None
+    from torchvision.transforms import v2
+
+    return v2.Compose(steps)
 
 
 class ImageSet(torch.utils.data.Dataset):

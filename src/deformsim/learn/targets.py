@@ -51,8 +51,9 @@ def check_target(table: pd.DataFrame, cfg: TrainConfig) -> None:
     target = cfg.target
     if target == "label":
         return
-    if cfg.augment:
-        raise UserError(f"train.augment does not apply to train.target {target} (its heads train on cached features)")
+    for name in ("augment", "random_conv"):
+        if getattr(cfg, name):
+            raise UserError(f"train.{name} does not apply to train.target {target} (its heads train on cached features)")
     need = {"severity": ["max_disp_mm"], "family": family_columns(table) or ["family_<name>"], "localise": ["region"]}
     missing = [c for c in need[target] if c not in table.columns]
     if missing:

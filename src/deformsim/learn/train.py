@@ -3,7 +3,7 @@
 With ``train.feature_norm`` the pooled-feature statistics are set exactly from the training images at the end;
 ``adapt`` (a folder of unlabelled real photos) then adapts them (:mod:`deformsim.learn.adapt`).
 
-With ``cache_features`` (and no augmentation) every epoch trains on the cached stem activations of the
+With ``cache_features`` (and neither ``augment`` nor ``random_conv``) every epoch trains on the cached stem activations of the
 images (:mod:`deformsim.learn.features`); otherwise each batch goes through the whole network.
 
 ``train.target`` other than ``label`` trains a head on the dense labels instead (:mod:`deformsim.learn.targets`).
@@ -29,7 +29,7 @@ from deformsim.config import TrainConfig
 from deformsim.dataset.tables import check_table, split
 from deformsim.errors import UserError
 from deformsim.learn import checkpoint
-from deformsim.learn.data import ImageSet, augmenter
+from deformsim.learn.data import ImageSet, training_transform
 from deformsim.learn.device import pick_device, set_threads
 from deformsim.learn.features import cached_stem
 from deformsim.learn.models import LOGIT_EPS, DeformNet, build, members
@@ -55,8 +55,9 @@ class _Inputs:
         self.model, self.device = model, device
         self.feats = None
         self.plain = ImageSet(paths, cfg.image_size)
-        self.augmented = ImageSet(paths, cfg.image_size, augmenter(cfg.image_size)) if cfg.augment else self.plain
-        if cfg.cache_features and not cfg.augment:
+        transform = training_transform(cfg.augment, cfg.random_conv, cfg.image_size)
+        self.augmented = ImageSet(paths, cfg.image_size, transform) if transform else self.plain
+        if cfg.cache_features and transform is None:
             self.feats = cached_stem(model, paths, cfg.image_size, cfg.batch_size, progress).to(device)
 
     def all(self, rows: torch.Tensor, batch_size: int) -> torch.Tensor:
