@@ -10,6 +10,17 @@ sys.path.insert(0, str(ROOT / "src"))
 SHARED = ROOT.parent / "shared" / "data"
 
 
+def run_main(main) -> None:
+    """Run a benchmark's ``main``: bad input (a UserError) ends it with ``error: <message>``, one line, as in the
+    CLI, rather than a traceback."""
+    from deformsim.errors import UserError
+
+    try:
+        main()
+    except UserError as exc:
+        raise SystemExit(f"error: {exc}") from None
+
+
 def rss_mb(pid: int) -> float:
     """Resident memory of a process in MiB (Linux)."""
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from _util import interleaved_seconds, render_options
+from _util import interleaved_seconds, render_options, run_main
 
 from deformsim.config import load_config
 from deformsim.hdri import list_hdris
@@ -39,4 +39,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

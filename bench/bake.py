@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _util import interleaved_seconds
+from _util import interleaved_seconds, run_main
 
 from deformsim.bank.stage import bake
 from deformsim.bank.store import load_bank
@@ -62,4 +62,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

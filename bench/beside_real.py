@@ -16,7 +16,7 @@ import argparse
 from fnmatch import fnmatch
 from pathlib import Path
 
-from _util import SHARED
+from _util import SHARED, run_main
 from PIL import ImageOps
 
 from deformsim.dataset.contact_sheet import COLORS, grid
@@ -66,4 +66,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

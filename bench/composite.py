@@ -18,13 +18,13 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import pandas as pd
-from _util import SHARED
+from _util import SHARED, run_main
 
-from deformsim.composite.backgrounds import load_photo
+from deformsim.composite.backgrounds import load_photo, scan_backgrounds
 from deformsim.composite.matte import binary_iou, chroma_matte
 from deformsim.composite.stage import composite
 from deformsim.config import CompositeConfig, load_config
+from deformsim.dataset.manifest import read_manifest
 
 
 def soft_iou(a: np.ndarray, b: np.ndarray) -> float:
@@ -59,6 +59,7 @@ def main() -> None:
     ap.add_argument("--backgrounds", type=Path, default=SHARED / "backgrounds")
     ap.add_argument("--repeat", type=int, default=3, help="timed passes over the images (best is kept)")
     args = ap.parse_args()
+    photos = scan_backgrounds(args.backgrounds)
     tmp = tempfile.TemporaryDirectory()
     root = args.dataset
     if root is None:
@@ -68,9 +69,8 @@ def main() -> None:
         print("rendering 32 images at 128 px ...", flush=True)
         generate(load_config("quick", {"generate.n": 32, "render.resolution": 128, "render.samples": 8,
                                        "generate.preview": 0}), root, progress=False)
-    df = pd.read_parquet(root / "manifest.parquet", use_threads=False)
+    df = read_manifest(root)
     ids = list(df["id"])
-    photos = sorted(p for p in args.backgrounds.rglob("*") if p.suffix.lower() in {".jpg", ".jpeg", ".png"})
     cfg = CompositeConfig(backgrounds=args.backgrounds)
     exact = [cv2.imread(str(root / "images" / "rgba" / f"{i}.png"), cv2.IMREAD_UNCHANGED)[..., 3] / 255.0 for i in ids]
 
@@ -108,4 +108,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

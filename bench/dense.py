@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from _util import interleaved_seconds, render_options
+from _util import interleaved_seconds, render_options, run_main
 
 from deformsim.config import load_config
 from deformsim.hdri import list_hdris
@@ -36,4 +36,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

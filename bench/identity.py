@@ -23,7 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _util import ROOT, SHARED
+from _util import ROOT, SHARED, run_main
 
 from deformsim import identity
 from deformsim.atomic import write_json, write_text
@@ -156,4 +156,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

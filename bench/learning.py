@@ -23,6 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tests" / "learn")]
 
+from _util import run_main  # noqa: E402
+
 from deformsim.learn.backbones import BACKBONES  # noqa: E402
 from deformsim.log import get_logger  # noqa: E402
 
@@ -91,4 +93,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -16,6 +16,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
+from _util import run_main  # noqa: E402
+
 from deformsim.config import load_config  # noqa: E402
 from deformsim.generate.worker_client import WorkerProcess  # noqa: E402
 from deformsim.hdri import list_hdris  # noqa: E402
@@ -64,4 +66,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -22,13 +22,12 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _util import ROOT
+from _util import ROOT, run_main
 from PIL import Image
 
 from deformsim.atomic import write_bytes, write_json
 from deformsim.config import RenderConfig, load_config
 from deformsim.dataset.layout import Layout, image_id
-from deformsim.errors import UserError
 from deformsim.evaluate.image_quality import psnr, ssim
 from deformsim.generate.stage import RENDERER
 from deformsim.generate.worker_client import WorkerProcess
@@ -238,7 +237,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except UserError as exc:
-        raise SystemExit(f"error: {exc}") from None
+    run_main(main)

@@ -26,7 +26,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from _util import ROOT  # noqa: F401  (puts src/ on the path)
+from _util import run_main
 from PIL import Image
 
 from deformsim.config import TrainConfig
@@ -134,4 +134,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

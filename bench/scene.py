@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import argparse
 
-from _util import interleaved_seconds, render_options
+from _util import interleaved_seconds, render_options, run_main
 
 from deformsim.config import load_config
 from deformsim.hdri import list_hdris
@@ -40,4 +40,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _util import SHARED
+from _util import SHARED, run_main
 
 PAPER_N = 6000
 PRESETS = ("quick", "paper")
@@ -119,4 +119,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -1,0 +1,19 @@
+"""Benchmark scripts meet bad input as the CLI does: one ``error:`` line, no traceback."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[2] / "bench"
+
+
+@pytest.mark.parametrize("script", ["beside_real.py", "composite.py"])
+def test_a_missing_dataset_ends_in_one_line_naming_it(script, tmp_path):
+    missing = tmp_path / "no-such-dataset"
+    args = [missing, "--variant", "backgrounds"] if script == "beside_real.py" else [missing]
+    done = subprocess.run([sys.executable, BENCH / script, *map(str, args)], capture_output=True, text=True, cwd=BENCH.parent)
+    assert done.returncode != 0
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and str(missing) in lines[0], done.stderr
