@@ -21,6 +21,15 @@ def run_main(main) -> None:
         raise SystemExit(f"error: {exc}") from None
 
 
+def positive_int(text: str) -> int:
+    """An argparse type: a whole number of at least 1."""
+    import argparse
+
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number of at least 1, got {text!r}")
+    return int(text)
+
+
 def rss_mb(pid: int) -> float:
     """Resident memory of a process in MiB (Linux)."""
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():
@@ -31,9 +40,9 @@ def rss_mb(pid: int) -> float:
 
 def render_options(ap) -> None:
     """The command-line options of the interleaved render benchmarks (dense, scene)."""
-    ap.add_argument("--states", type=int, default=4, help="timed samples (4 images each)")
-    ap.add_argument("--resolution", type=int, default=128)
-    ap.add_argument("--samples", type=int, default=16)
+    ap.add_argument("--states", type=positive_int, default=4, help="timed samples (4 images each)")
+    ap.add_argument("--resolution", type=positive_int, default=128)
+    ap.add_argument("--samples", type=positive_int, default=16)
     ap.add_argument("--threads", type=int, default=2)
 
 

@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _util import interleaved_seconds, run_main
+from _util import interleaved_seconds, positive_int, run_main
 
 from deformsim.bank.stage import bake
 from deformsim.bank.store import load_bank
@@ -31,7 +31,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--spec", type=Path, default=None)
     ap.add_argument("--object", type=Path, default=None)
-    ap.add_argument("--states", type=int, default=4, help="timed samples (4 images each)")
+    ap.add_argument("--states", type=positive_int, default=4, help="timed samples (4 images each)")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--fresh", action="store_true", help="simulate the bank again in a temporary cache")
     a = ap.parse_args()

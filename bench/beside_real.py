@@ -16,7 +16,7 @@ import argparse
 from fnmatch import fnmatch
 from pathlib import Path
 
-from _util import SHARED, run_main
+from _util import SHARED, positive_int, run_main
 from PIL import ImageOps
 
 from deformsim.dataset.contact_sheet import COLORS, grid
@@ -32,12 +32,12 @@ def main() -> None:
     ap.add_argument("data", type=Path)
     ap.add_argument("--variant", action="append", required=True)
     ap.add_argument("--real", type=Path, default=SHARED / "real_cans_dev")
-    ap.add_argument("--n", type=int, default=5)
+    ap.add_argument("--n", type=positive_int, default=5)
     ap.add_argument("--label", action="append", choices=["intact", "deformed"], help="repeat for both; default deformed")
     ap.add_argument("--camera", type=int, help="only the synthetic images of this camera")
     ap.add_argument("--real-match", help="only the real photos whose file name matches this glob")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--tile", type=int, default=192)
+    ap.add_argument("--tile", type=positive_int, default=192)
     ap.add_argument("--out", type=Path, default=Path("sheet.png"))
     a = ap.parse_args()
     table = real_table(a.real)

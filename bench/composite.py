@@ -18,7 +18,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from _util import SHARED, run_main
+from _util import SHARED, positive_int, run_main
 
 from deformsim.composite.backgrounds import load_photo, scan_backgrounds
 from deformsim.composite.matte import binary_iou, chroma_matte
@@ -57,7 +57,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dataset", nargs="?", type=Path)
     ap.add_argument("--backgrounds", type=Path, default=SHARED / "backgrounds")
-    ap.add_argument("--repeat", type=int, default=3, help="timed passes over the images (best is kept)")
+    ap.add_argument("--repeat", type=positive_int, default=3, help="timed passes over the images (best is kept)")
     args = ap.parse_args()
     photos = scan_backgrounds(args.backgrounds)
     tmp = tempfile.TemporaryDirectory()

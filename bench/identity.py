@@ -23,7 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _util import ROOT, SHARED, run_main
+from _util import ROOT, SHARED, positive_int, run_main
 
 from deformsim import identity
 from deformsim.atomic import write_json, write_text
@@ -129,7 +129,7 @@ def scenario(name: str, overrides: dict, flags: list[str], real: Path | None, tm
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--repeat", type=positive_int, default=5)
     parser.add_argument("--no-mesh", action="store_true", help="skip the user-mesh case (it starts Blender)")
     args = parser.parse_args()
     backgrounds, real = SHARED / "backgrounds", SHARED / "real_cans_dev"

@@ -23,7 +23,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tests" / "learn")]
 
-from _util import run_main  # noqa: E402
+from _util import positive_int, run_main  # noqa: E402
 
 from deformsim.learn.backbones import BACKBONES  # noqa: E402
 from deformsim.log import get_logger  # noqa: E402
@@ -52,9 +52,9 @@ def _stem_seconds(model, paths: list[str], size: int, channels_last: bool, repea
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=32, help="blob images per class")
-    ap.add_argument("--size", type=int, default=128)
-    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--n", type=positive_int, default=32, help="blob images per class")
+    ap.add_argument("--size", type=positive_int, default=128)
+    ap.add_argument("--repeats", type=positive_int, default=2)
     ap.add_argument("--backbones", default=",".join(BACKBONES))
     args = ap.parse_args()
     get_logger("deformsim").setLevel(logging.ERROR)  # one epoch on random weights learns nothing: timed only

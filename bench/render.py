@@ -16,7 +16,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
-from _util import run_main  # noqa: E402
+from _util import positive_int, run_main  # noqa: E402
 
 from deformsim.config import load_config  # noqa: E402
 from deformsim.generate.worker_client import WorkerProcess  # noqa: E402
@@ -51,8 +51,8 @@ def bench(resolution: int, samples: int, states: int, threads: int, out: Path) -
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--samples", type=int, default=16, help="Cycles samples per pixel (denoised)")
-    ap.add_argument("--states", type=int, default=4, help="scene states (x4 cameras) at 256 px; 1 at 512 px")
+    ap.add_argument("--samples", type=positive_int, default=16, help="Cycles samples per pixel (denoised)")
+    ap.add_argument("--states", type=positive_int, default=4, help="scene states (x4 cameras) at 256 px; 1 at 512 px")
     ap.add_argument("--threads", type=int, default=0, help="Cycles threads (0 = all cores)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="deformsim-bench-") as tmp:

@@ -22,14 +22,14 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _util import ROOT, run_main
+from _util import ROOT, positive_int, run_main
 from PIL import Image
 
 from deformsim.atomic import write_bytes, write_json
 from deformsim.config import RenderConfig, load_config
 from deformsim.dataset.layout import Layout, image_id
 from deformsim.evaluate.image_quality import psnr, ssim
-from deformsim.generate.stage import RENDERER
+from deformsim.generate.identity import RENDERER
 from deformsim.generate.worker_client import WorkerProcess
 from deformsim.hdri import list_hdris
 from deformsim.sampling import sample_params
@@ -201,11 +201,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "runs" / "render_quality", help="results, references, logs")
     ap.add_argument("--quick", action="store_true", help="2 scenes, 128 px, 5 settings: a smoke run of a few minutes")
-    ap.add_argument("--resolutions", type=int, nargs="+", help="default: 512 128 256 (--quick: 128)")
-    ap.add_argument("--scenes", type=int, help="scene states (half intact); default 4 (--quick: 2)")
-    ap.add_argument("--ref-samples", type=int, help="reference samples per pixel; default 512 (--quick: 128)")
+    ap.add_argument("--resolutions", type=positive_int, nargs="+", help="default: 512 128 256 (--quick: 128)")
+    ap.add_argument("--scenes", type=positive_int, help="scene states (half intact); default 4 (--quick: 2)")
+    ap.add_argument("--ref-samples", type=positive_int, help="reference samples per pixel; default 512 (--quick: 128)")
     ap.add_argument("--only", nargs="+", metavar="NAME", help="these settings of the grid only (today is always kept)")
-    ap.add_argument("--repeats", type=int, default=1, help="render each setting and scene this many times (timing noise)")
+    ap.add_argument("--repeats", type=positive_int, default=1, help="renders of each setting and scene (timing noise)")
     ap.add_argument("--seed", type=int, default=0, help="draws the scenes and the render order")
     args = ap.parse_args()
     args.resolutions = args.resolutions or ([128] if args.quick else [512, 128, 256])

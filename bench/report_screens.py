@@ -26,7 +26,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from _util import run_main
+from _util import positive_int, run_main
 from PIL import Image
 
 from deformsim.config import TrainConfig
@@ -112,7 +112,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("report_dir", type=Path, nargs="?")
     ap.add_argument("--out", type=Path, default=Path("report-screens"))
-    ap.add_argument("--widths", type=int, nargs="+", default=[1400, 420])
+    ap.add_argument("--widths", type=positive_int, nargs="+", default=[1400, 420])
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     report_dir = args.report_dir or tiny_report(args.out / "tiny-report")

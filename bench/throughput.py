@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _util import SHARED, run_main
+from _util import SHARED, positive_int, run_main
 
 PAPER_N = 6000
 PRESETS = ("quick", "paper")
@@ -79,10 +79,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--backgrounds", type=Path, default=SHARED / "backgrounds" if (SHARED / "backgrounds").is_dir() else None)
     ap.add_argument("--out", type=Path, default=Path("runs/throughput"))
-    ap.add_argument("--render-sizes", type=int, nargs=2, default=[16, 48],
+    ap.add_argument("--render-sizes", type=positive_int, nargs=2, default=[16, 48],
                     help="images in the two render runs (whole samples of 4 for both workers)")
-    ap.add_argument("--paper-sizes", type=int, nargs=2, default=[8, 24], help="the same for the paper preset (512 px)")
-    ap.add_argument("--learn-sizes", type=int, nargs=2, default=[32, 96], help="images in the two learning runs")
+    ap.add_argument("--paper-sizes", type=positive_int, nargs=2, default=[8, 24], help="the same for the paper preset (512 px)")
+    ap.add_argument("--learn-sizes", type=positive_int, nargs=2, default=[32, 96], help="images in the two learning runs")
     args = ap.parse_args()
     from deformsim.config import load_config
     from deformsim.learn.weights import resolve

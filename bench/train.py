@@ -19,7 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tests" / "learn")]
 
-from _util import run_main  # noqa: E402
+from _util import positive_int, run_main  # noqa: E402
 
 from deformsim.config import TrainConfig  # noqa: E402
 
@@ -28,9 +28,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("data", nargs="?", type=Path)
     ap.add_argument("--variant", default=None)
-    ap.add_argument("--size", type=int, default=128)
-    ap.add_argument("--epochs", type=int, default=3)
-    ap.add_argument("--n", type=int, default=48, help="blob images per class when no DATA is given")
+    ap.add_argument("--size", type=positive_int, default=128)
+    ap.add_argument("--epochs", type=positive_int, default=3)
+    ap.add_argument("--n", type=positive_int, default=48, help="blob images per class when no DATA is given")
     ap.add_argument("--backbone", default="vgg16")
     ap.add_argument("--weights", default="offline", help="timings do not depend on it; 'none' needs no package")
     ap.add_argument("--device", default="auto")

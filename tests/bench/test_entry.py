@@ -17,3 +17,12 @@ def test_a_missing_dataset_ends_in_one_line_naming_it(script, tmp_path):
     assert done.returncode != 0
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and str(missing) in lines[0], done.stderr
+
+
+def test_every_script_imports():
+    """A module the scripts import that moves or is renamed breaks them here, not on a user's machine."""
+    code = ("import runpy, sys; sys.path.insert(0, 'bench')\n"
+            "for s in sys.argv[1:]: runpy.run_path(s, run_name='imported')")
+    scripts = sorted(str(p.relative_to(BENCH.parent)) for p in BENCH.glob("*.py"))
+    done = subprocess.run([sys.executable, "-c", code, *scripts], capture_output=True, text=True, cwd=BENCH.parent)
+    assert done.returncode == 0, done.stderr
