@@ -81,8 +81,8 @@ def merge(inputs: list[dict], sources: list[str]) -> dict:
     for results, source in zip(inputs[1:], sources[1:]):
         if diffs := differences(first, _config(results, source)):
             key, a, b = diffs[0]
-            raise UserError(f"{source} was made with other settings than {sources[0]} ({key}: {shown(a, 40)} against "
-                            f"{shown(b, 40)}): merge the draws of one config (it may differ in generate.seed and "
+            raise UserError(f"{source} was made with other settings than {sources[0]} ({key}: {shown(b, 40)} against "
+                            f"{shown(a, 40)}): merge the draws of one config (it may differ in generate.seed and "
                             "train.seed only)")
     seen: dict[tuple, str] = {}
     for results, source in zip(inputs, sources):
