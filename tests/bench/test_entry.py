@@ -9,11 +9,12 @@ import pytest
 BENCH = Path(__file__).resolve().parents[2] / "bench"
 
 
-@pytest.mark.parametrize("script", ["beside_real.py", "composite.py"])
-def test_a_missing_dataset_ends_in_one_line_naming_it(script, tmp_path):
-    missing = tmp_path / "no-such-dataset"
-    args = [missing, "--variant", "backgrounds"] if script == "beside_real.py" else [missing]
-    done = subprocess.run([sys.executable, BENCH / script, *map(str, args)], capture_output=True, text=True, cwd=BENCH.parent)
+@pytest.mark.parametrize("script, flag", [("beside_real.py", "--real"), ("composite.py", "--backgrounds")])
+def test_a_missing_folder_ends_in_one_line_naming_it(script, flag, tmp_path):
+    missing = tmp_path / "no-such-folder"
+    args = [tmp_path, "--variant", "backgrounds"] if script == "beside_real.py" else [tmp_path]
+    done = subprocess.run([sys.executable, BENCH / script, *map(str, args), flag, str(missing)], capture_output=True,
+                          text=True, cwd=BENCH.parent)
     assert done.returncode != 0
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and str(missing) in lines[0], done.stderr
