@@ -29,6 +29,11 @@ def make_tin(out: Path, *args: str) -> np.ndarray:
     return rec["v"].astype(np.float64)
 
 
+def test_the_mesh_is_written_into_a_folder_that_does_not_exist_yet(tmp_path):
+    out = tmp_path / "runs" / "tin" / "tin.stl"  # the docs' first command on a fresh checkout
+    assert len(make_tin(out, "--segments", "16")) > 0 and [p.name for p in out.parent.iterdir()] == ["tin.stl"]
+
+
 @pytest.fixture(scope="module")
 def tin(tmp_path_factory) -> np.ndarray:
     return make_tin(tmp_path_factory.mktemp("tin") / "tin.stl", "--segments", "48")  # coarse around: a faster check
