@@ -46,10 +46,10 @@ def write_stl(path: Path, tris: np.ndarray) -> None:
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
     rec = np.zeros(len(tris), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")])
     rec["n"], rec["v"] = n, tris
-    with open(path, "wb") as f:
-        f.write(b"deformsim example carton".ljust(80, b" "))
-        f.write(np.uint32(len(tris)).tobytes())
-        f.write(rec.tobytes())
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".part")  # written whole, then renamed: no half-written mesh on a failure
+    tmp.write_bytes(b"deformsim example carton".ljust(80, b" ") + np.uint32(len(tris)).tobytes() + rec.tobytes())
+    tmp.replace(path)
 
 
 if __name__ == "__main__":
