@@ -9,20 +9,17 @@ is divided by its images, and compared with the sum of Cycles' render-call secon
 from __future__ import annotations
 
 import argparse
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
+from _util import positive_int, run_main
 
-from _util import positive_int, run_main  # noqa: E402
-
-from deformsim.config import load_config  # noqa: E402
-from deformsim.generate.worker_client import WorkerProcess  # noqa: E402
-from deformsim.hdri import list_hdris  # noqa: E402
-from deformsim.sampling import sample_params  # noqa: E402
-from deformsim.spec.model import load_spec  # noqa: E402
+from deformsim.config import load_config
+from deformsim.generate.worker_client import WorkerProcess
+from deformsim.hdri import list_hdris
+from deformsim.sampling import sample_params
+from deformsim.spec.model import load_spec
 
 
 def bench(resolution: int, samples: int, states: int, threads: int, out: Path) -> dict:

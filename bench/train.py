@@ -16,10 +16,9 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "src"), str(ROOT / "tests" / "learn")]
+from _util import ROOT, positive_int, run_main
 
-from _util import positive_int, run_main  # noqa: E402
+sys.path.insert(0, str(ROOT / "tests" / "learn"))
 
 from deformsim.config import TrainConfig  # noqa: E402
 

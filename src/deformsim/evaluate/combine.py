@@ -80,9 +80,9 @@ def merge(inputs: list[dict], sources: list[str]) -> dict:
     first = _config(inputs[0], sources[0])
     for results, source in zip(inputs[1:], sources[1:]):
         if diffs := differences(first, _config(results, source)):
-            key, a, b = diffs[0]
-            raise UserError(f"{source} was made with other settings than {sources[0]} ({key}: {shown(b, 40)} against "
-                            f"{shown(a, 40)}): merge the draws of one config (it may differ in generate.seed and "
+            key, in_first, in_source = diffs[0]
+            raise UserError(f"{source} was made with other settings than {sources[0]} ({key}: {shown(in_source, 40)} "
+                            f"against {shown(in_first, 40)}): merge the draws of one config (it may differ in generate.seed and "
                             "train.seed only)")
     seen: dict[tuple, str] = {}
     for results, source in zip(inputs, sources):
