@@ -566,6 +566,10 @@ class TrainConfig(_Model):
     cache_features: bool = Field(
         True, description="train on cached activations of the frozen backbone (not with augment or random_conv)"
     )
+    grey: bool = Field(
+        False, description="judge brightness only: every image turns grey before the backbone, in training and in "
+        "prediction, so the print's and the light's colours cannot tell the classes apart"
+    )
     threshold: float = Field(0.5, gt=0, lt=1, description="probability from which an image (or pixel) is deformed")
     variants: list[str] = Field(
         ["black", "backgrounds"], description="image variants the report trains and evaluates on; the first is "

@@ -85,3 +85,21 @@ def test_an_entry_of_the_wrong_shape_or_kind_is_computed_again_and_replaced(blob
     assert counted == [3, 1] and (again - good).abs().max() < 1e-3, (again - good).abs().max()
     assert torch.equal(torch.load(broken, weights_only=True), again[1])  # replaced: the next run reads it
     assert torch.equal(F.cached_stem(model, paths, 64, 8), again) and counted == [3, 1]
+
+
+def test_grey_models_judge_brightness_only_and_cache_apart(blobs, counted, tmp_path):
+    """With train.grey an image and its grey copy get the same prediction, after saving and loading too (an ensemble
+    here); its stem activations are cached apart from the colour model's."""
+    train = blobs.groupby("y").head(8)
+    cfg = CFG.model_copy(update={"grey": True, "ensemble": 2})
+    fit(train, cfg, tmp_path / "model", progress=False)
+    predictor = load(tmp_path / "model")
+    assert predictor.cfg.grey
+    x = torch.rand(2, 3, 64, 64)
+    grey = (x * torch.tensor([0.2126, 0.7152, 0.0722]).view(1, 3, 1, 1)).sum(1, keepdim=True).expand_as(x)
+    net = predictor.model
+    with torch.no_grad():
+        assert torch.allclose(net.predict(x), net.predict(grey), atol=1e-6)
+        colour, _ = build(CFG)
+        assert not torch.allclose(colour.stem(x), colour.stem(grey), atol=1e-3)
+    assert F.cache_key(net, list(train["path"][:1]), 64) != F.cache_key(colour, list(train["path"][:1]), 64)

@@ -109,13 +109,15 @@ def test_train_reads_generated_dataset_variant(blobs, tmp_path):
         load_table(tmp_path, "nope", "black")
 
 
-def test_max_pooled_model_trains_reloads_and_exports(blobs, tmp_path):
-    cfg = TrainConfig(weights="offline", image_size=64, epochs=2, batch_size=16, pool="avgmax")
+@pytest.mark.parametrize("option, width", [({"pool": "avgmax"}, 1024), ({"grey": True}, 512)])
+def test_max_pooled_and_grey_models_train_reload_and_export(blobs, tmp_path, option, width):
+    """Options inside the network (pooling both ways; grey images) hold after loading and in the ONNX file."""
+    cfg = TrainConfig(weights="offline", image_size=64, epochs=2, batch_size=16, **option)
     result = fit(blobs, cfg, tmp_path / "m", progress=False)
     assert result.history[-1]["val_acc"] >= 0.75  # chance is 0.5
     predictor = load(tmp_path / "m")
     paths = list(blobs["path"][:4])
-    assert predictor.features(paths, "pooled").shape == (4, 1024)  # mean and maximum of 512 channels
+    assert predictor.features(paths, "pooled").shape == (4, width)  # avgmax: mean and maximum of 512 channels
     expected = predictor.predict_proba(paths)
     session = ort.InferenceSession(str(to_onnx(tmp_path / "m", tmp_path / "m.onnx")),
                                    providers=["CPUExecutionProvider"])

@@ -1,11 +1,12 @@
 """The paper's classifier: a frozen ImageNet backbone with a trainable last layer or block and a head.
 
-``DeformNet.forward`` takes 0-1 RGB images (N, 3, S, S), applies the backbone's normalisation and returns
-**logits** of P(deformed) (training uses BCEWithLogits); ``proba`` applies the sigmoid, and the ONNX export
-outputs probabilities. The backbone is split at ``cut``: ``stem`` (frozen, always in eval mode, so its
-outputs can be cached) and ``tail`` (the last conv layer / block, trained). The head is the paper's three
-fully connected layers or a linear probe; with ``feature_norm`` the pooled features pass a BatchNorm without
-affine parameters, whose statistics can be re-estimated on another domain (AdaBN, :mod:`deformsim.learn.adapt`).
+``DeformNet.forward`` takes 0-1 RGB images (N, 3, S, S), turns them grey with ``grey`` (Rec. 709 luma in all three
+channels), applies the backbone's normalisation and returns **logits** of P(deformed) (training uses BCEWithLogits);
+``proba`` applies the sigmoid, and the ONNX export outputs probabilities. The backbone is split at ``cut``: ``stem``
+(frozen, always in eval mode, so its outputs can be cached) and ``tail`` (the last conv layer / block, trained). The
+head is the paper's three fully connected layers or a linear probe; with ``feature_norm`` the pooled features pass a
+BatchNorm without affine parameters, whose statistics can be re-estimated on another domain (AdaBN,
+:mod:`deformsim.learn.adapt`).
 
 Other ``target`` s (:mod:`deformsim.learn.targets`) freeze the whole backbone and train only a head on it:
 ``severity`` regresses the maximum displacement in mm (``tail`` returns mm), ``family`` gives one logit per
@@ -23,13 +24,16 @@ from deformsim.learn.backbones import BACKBONES
 from deformsim.learn.heads import POOL_WIDTH, GlobalPool, RegionHead, region_size, vector_head
 from deformsim.learn.weights import resolve
 
+LUMA = torch.tensor([0.2126, 0.7152, 0.0722]).view(1, 3, 1, 1)  # Rec. 709 weights of R, G, B
+
 
 class DeformNet(nn.Module):
     def __init__(self, backbone: str, hidden: tuple[int, int], dropout: float, finetune: str = "last_conv",
                  head: str = "mlp", feature_norm: bool = False, target: str = "label", outputs: int = 1,
-                 image_size: int = 224, pool: str = "avg"):
+                 image_size: int = 224, pool: str = "avg", grey: bool = False):
         super().__init__()
         self.backbone = backbone
+        self.grey = grey
         self.target = target
         bb = BACKBONES[backbone]
         self.features = bb.features()
@@ -63,6 +67,8 @@ class DeformNet(nn.Module):
 
     def stem(self, x: torch.Tensor) -> torch.Tensor:
         """Frozen part: 0-1 RGB images to the activations entering the first trainable layer."""
+        if self.grey:
+            x = (x * LUMA.to(x)).sum(1, keepdim=True).expand_as(x)
         return self.features[: self.cut]((x - self.mean) / self.std)
 
     def pooled_raw(self, z: torch.Tensor) -> torch.Tensor:
@@ -121,7 +127,7 @@ class Ensemble(nn.Module):
             for i in range(first.cut):
                 m.features[i] = first.features[i]
         self.members = nn.ModuleList(members)
-        self.backbone, self.target, self.cut = first.backbone, first.target, first.cut
+        self.backbone, self.target, self.cut, self.grey = first.backbone, first.target, first.cut, first.grey
 
     @property
     def features(self) -> nn.Sequential:
@@ -167,7 +173,7 @@ def build(cfg: TrainConfig, load_weights: bool = True, outputs: int = 1) -> tupl
     for k in range(cfg.ensemble):
         torch.manual_seed(cfg.seed + k)
         nets.append(DeformNet(cfg.backbone, cfg.hidden, cfg.dropout, cfg.finetune, cfg.head, cfg.feature_norm,
-                              cfg.target, outputs, cfg.image_size, cfg.pool))
+                              cfg.target, outputs, cfg.image_size, cfg.pool, cfg.grey))
     desc = "loaded from a saved model"
     if load_weights:
         state, desc = resolve(cfg.backbone, cfg.weights)
