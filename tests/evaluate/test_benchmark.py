@@ -1,6 +1,9 @@
-"""The sim-to-real benchmark's aggregation and plan checks (no training)."""
+"""The sim-to-real benchmark: its aggregation and plan checks, what its training reads and what it trains on."""
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import pytest
 
@@ -77,6 +80,35 @@ def test_training_reads_nothing_under_the_real_folder(tmp_path, monkeypatch):
     assert touched == []
     assert results["variants"]["black"]["n_runs"] == 1 and results["real_images"] == 6
     assert results["settings"]["train"]["threshold"] == 0.5
+
+
+@pytest.mark.blender
+@pytest.mark.torch
+def test_whole_trains_on_every_render_and_scores_its_validation_split(tmp_path, monkeypatch):
+    """With --whole a run's model is the one deformsim run would train (every render); its synthetic score is that
+    of the renders its training held out for validation (out of bag for an ensemble), and the results say how the
+    models were trained."""
+    from PIL import Image
+
+    from deformsim.config import load_config
+    from deformsim.evaluate.benchmark import run_benchmark
+
+    monkeypatch.setenv("DEFORMSIM_CACHE", str(tmp_path / "cache"))
+    real = tmp_path / "real"
+    for k, label in enumerate(["intact"] * 2 + ["deformed"] * 2):
+        (real / label).mkdir(parents=True, exist_ok=True)
+        Image.new("RGB", (40, 30), (60 * k, 90, 200 - 40 * k)).save(real / label / f"{k}.png")
+    cfg = load_config("quick", {"generate.n": 16, "render.resolution": 32, "render.samples": 1, "generate.seed": 4,
+                                "train.epochs": 2, "train.image_size": 32, "train.weights": "none"})
+    plan = Plan(train_seeds=1, variants=("black",), whole=True)
+    for ensemble in (1, 2):
+        cfg.train.ensemble = ensemble
+        results = run_benchmark(cfg, tmp_path / f"bench{ensemble}", real, plan, progress=False)
+        assert results["plan"]["whole"] is True and len(results["runs"]) == 1
+        trained = json.loads((Path(results["runs"][0]["model"]) / "train.json").read_text())
+        assert trained["n_train"] + trained["n_val"] == 16  # every render
+        held = trained["ensemble"] if ensemble > 1 else trained["history"][-1]
+        assert results["runs"][0]["synthetic"]["accuracy"] == pytest.approx(held["val_acc"], abs=1e-6)
 
 
 def test_a_variant_composited_before_the_dataset_grew_is_composited_again(tmp_path):

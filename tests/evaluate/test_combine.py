@@ -62,6 +62,11 @@ def test_merging_other_settings_is_one_line_naming_the_first_difference(photos):
         merge([a, b], ["a", "b"])
     del b["settings"]["train"]["backbone"]  # other seeds only: other draws of one config
     assert len(merge([a, b], ["a", "b"])["runs"]) == 8
+    b["plan"] = {"whole": True}  # its models trained on every render, a's on a split of them
+    with pytest.raises(UserError, match=r"b was made with other settings than a \(whole: True against False\)"):
+        merge([a, b], ["a", "b"])
+    a["plan"] = {"whole": True}
+    assert merge([a, b], ["a", "b"])["plan"]["whole"] is True
 
 
 def test_the_mean_of_a_benchmark_and_itself_is_itself(photos):

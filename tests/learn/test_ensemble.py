@@ -62,9 +62,13 @@ def test_each_member_holds_out_its_own_fifth_and_the_ensemble_scores_out_of_bag(
     with torch.no_grad():
         prob = {i: np.mean([float(net.predict(load_image(path[i], 64)[None])[0]) for net, s in zip(nets, splits)
                             if i in s["val"]]) for i in held}
-    got = json.loads((ensemble_dir / "train.json").read_text())["ensemble"]
+    trained = json.loads((ensemble_dir / "train.json").read_text())
+    got = trained["ensemble"]
     assert got["n_val"] == len(held) > len(splits[0]["val"])
     assert got["val_acc"] == pytest.approx(np.mean([(prob[i] >= 0.5) == y[i] for i in held]))
+    # and each of those images' probability is recorded, for scores of a model trained on every image
+    recorded = dict(zip(trained["held_out"]["ids"], trained["held_out"]["p_deformed"]))
+    assert sorted(recorded) == held and all(recorded[i] == pytest.approx(prob[i], abs=1e-5) for i in held)
 
 
 def test_an_ensemble_shares_one_stem_and_round_trips(ensemble_dir, blobs):

@@ -33,6 +33,9 @@ def register(app: typer.Typer) -> None:
         composite_seeds: Optional[int] = typer.Option(None, help="background draws per dataset (default 3)"),
         train_seeds: Optional[int] = typer.Option(None, help="training seeds per draw (default 3)"),
         variants: str = typer.Option("black,backgrounds", help="comma-separated variants to train on"),
+        whole: bool = typer.Option(
+            False, "--whole", help="train each model on every render, as deformsim run does (synthetic scores: its "
+            "validation split); default: a test split of the renders is set aside first"),
         adapt: Optional[Path] = typer.Option(None, "--adapt", help="unlabelled real photos to adapt to (labels never read)"),
         baseline: Optional[Path] = typer.Option(
             None, "--baseline", help="another benchmark's results.json (or folder) on the same photos: print each "
@@ -48,7 +51,7 @@ def register(app: typer.Typer) -> None:
         plan = Plan(data_seeds=data_seeds,
                     composite_seeds=composite_seeds or (2 if quick else 3),
                     train_seeds=train_seeds or (2 if quick else 3),
-                    variants=tuple(v.strip() for v in variants.split(",") if v.strip()))
+                    variants=tuple(v.strip() for v in variants.split(",") if v.strip()), whole=whole)
         results = engine.sim2real(real, out, plan, adapt=adapt, datasets=datasets, baseline=baseline)
         console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'results.json'}",
                       highlight=False, soft_wrap=True)

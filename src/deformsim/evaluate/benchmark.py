@@ -1,7 +1,10 @@
 """The sim-to-real benchmark: real-photo metrics as mean and standard deviation over seeds.
 
 One run trains on synthetic images only and is tested twice: on the synthetic images held out of its
-training (grouped by scene) and on a folder of labelled real photos. Runs differ in the dataset's
+training (grouped by scene) and on a folder of labelled real photos. By default a run first sets aside a test split
+of the renders and trains on the rest; with ``Plan.whole`` it trains on every render, as ``deformsim run`` trains its
+model for the real photos, and its synthetic scores are those of the renders its training held out for validation
+(out of bag for a ``train.ensemble``). Runs differ in the dataset's
 generate seed (``data_seeds``), in which background photo lands behind which render (``composite_seeds``)
 and in the training seed (``train_seeds``); the rendered ``black`` variant has no background draw. The real
 labels are read only to score predictions: training, its validation split and the 0.5 threshold never see
@@ -40,6 +43,7 @@ class Plan:
     composite_seeds: int = 3
     train_seeds: int = 3
     variants: tuple[str, ...] = ("black", "backgrounds")
+    whole: bool = False  # train on every render (synthetic scores: its validation renders), not on a split of them
 
     def __post_init__(self) -> None:
         for name in ("data_seeds", "composite_seeds", "train_seeds"):
@@ -83,6 +87,23 @@ def run_record(key: tuple, model, y: np.ndarray, prob: np.ndarray, threshold: fl
             "synthetic": {k: synthetic[k] for k in ("accuracy", "f1")}, "real_predictions": [float(p) for p in prob]}
 
 
+def _synthetic(model_dir: Path, predictor, table, test_df, threshold: float) -> dict:
+    """A run's synthetic scores: on its held-out test split, or (``test_df`` None: trained on every render) on the
+    renders its training held out, by the probabilities it recorded (out of bag for an ensemble)."""
+    from deformsim.evaluate.metrics import compute_metrics
+
+    if test_df is not None:
+        return compute_metrics(test_df["y"].to_numpy(), predictor.predict_proba(list(test_df["path"])), threshold)
+    held = json.loads((model_dir / "train.json").read_text(encoding="utf-8"))["held_out"]
+    y = table.set_index("id").loc[held["ids"], "y"].to_numpy()
+    return compute_metrics(y, np.asarray(held["p_deformed"]), threshold)
+
+
+def trained_on_all(results: dict) -> bool:
+    """Whether a benchmark's models trained on every render (``Plan.whole``; results from before it: no)."""
+    return bool(results.get("plan", {}).get("whole", False))
+
+
 def _draws(variant: str, plan: Plan) -> range:
     return range(1) if variant in RENDERED else range(plan.composite_seeds)
 
@@ -114,7 +135,6 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     from deformsim.dataset.tables import drop_unseen
     from deformsim.dataset.variants import variant_table
     from deformsim.evaluate.experiments import grouped_split
-    from deformsim.evaluate.metrics import compute_metrics
     from deformsim.evaluate.paired import check_same_photos, compare, ensembles
     from deformsim.generate.identity import data_name
     from deformsim.generate.stage import generate, prepare
@@ -159,15 +179,15 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
                     log.info("run %d/%d: %s, data seed %d, background seed %s, train seed %d",
                              len(runs) + 1, total, variant, cfg_d.generate.seed, c if variant not in RENDERED else "-",
                              train_cfg.seed)
-                    train_df, test_df = grouped_split(table, train_cfg.split, train_cfg.seed)
+                    train_df, test_df = (table, None) if plan.whole else grouped_split(table, train_cfg.split,
+                                                                                       train_cfg.seed)
                     model_dir = out / "models" / f"{folder.name}-{name}-train{train_cfg.seed}"
                     if model_dir.exists():
                         shutil.rmtree(model_dir)  # the benchmark's own output: retrained from scratch
                     fit(train_df, train_cfg, model_dir, progress=progress, adapt=adapt)
                     predictor = load(model_dir)
                     check_unseen(model_dir, real_df["path"])
-                    synth = compute_metrics(test_df["y"].to_numpy(), predictor.predict_proba(list(test_df["path"])),
-                                            train_cfg.threshold)
+                    synth = _synthetic(model_dir, predictor, table, test_df, train_cfg.threshold)
                     prob = predictor.predict_proba(list(real_df["path"]))
                     key = (variant, cfg_d.generate.seed, c if variant not in RENDERED else None, train_cfg.seed)
                     runs.append(run_record(key, str(model_dir), real_df["y"].to_numpy(), prob, train_cfg.threshold,
@@ -181,7 +201,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
         "real_labels": [int(v) for v in real_df["y"]],  # for scoring and the reliability diagram only
         "majority_baseline": max(share, 1 - share),
         "plan": {"data_seeds": plan.data_seeds, "composite_seeds": plan.composite_seeds,
-                 "train_seeds": plan.train_seeds, "variants": list(plan.variants)},
+                 "train_seeds": plan.train_seeds, "variants": list(plan.variants), "whole": plan.whole},
         "adapt": str(adapt) if adapt is not None else None,
         "settings": cfg.model_dump(mode="json"),
         "variants": aggregate(runs),

@@ -17,7 +17,7 @@ from pydantic import ValidationError
 
 from deformsim.config import Config
 from deformsim.errors import UserError
-from deformsim.evaluate.benchmark import aggregate, run_record
+from deformsim.evaluate.benchmark import aggregate, run_record, trained_on_all
 from deformsim.evaluate.paired import check_same_photos, ensembles, run_key
 from deformsim.identity import settings
 from deformsim.outputs import differences
@@ -52,7 +52,8 @@ def _results(inputs: list[dict], runs: list[dict], sources: list[str], how: str)
     """Results as the benchmark writes them, with the first input's photos and settings; the time is all inputs'."""
     first = inputs[0]
     out = {k: first[k] for k in ("real_dir", "real_images", "real_paths", "real_labels", "majority_baseline")}
-    out |= {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"), "plan": {how: sources},
+    out |= {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "plan": {how: sources, "whole": trained_on_all(first)},
             "adapt": None, "settings": first["settings"], "variants": aggregate(runs), "runs": runs,
             "seconds": float(sum(results.get("seconds", 0.0) for results in inputs))}
     out["ensembles"] = ensembles(out)
@@ -61,7 +62,7 @@ def _results(inputs: list[dict], runs: list[dict], sources: list[str], how: str)
 
 def _config(results: dict, source: str) -> dict:
     """What a benchmark's runs were made with, less the seeds that tell draws apart; paths count as set or not, their
-    files by content (:func:`deformsim.identity.settings`)."""
+    files by content (:func:`deformsim.identity.settings`); ``whole``: whether its models trained on every render."""
     try:
         cfg = Config.model_validate(results["settings"])
     except ValidationError as exc:
@@ -70,7 +71,8 @@ def _config(results: dict, source: str) -> dict:
     data = settings(cfg)
     data["generate"].pop("seed", None)
     composite = cfg.composite.model_dump(mode="json") | {"backgrounds": cfg.composite.backgrounds is not None}
-    return {**data, "composite": composite, "train": cfg.train.model_dump(mode="json", exclude={"seed"})}
+    return {**data, "composite": composite, "train": cfg.train.model_dump(mode="json", exclude={"seed"}),
+            "whole": trained_on_all(results)}
 
 
 def merge(inputs: list[dict], sources: list[str]) -> dict:

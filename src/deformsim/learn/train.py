@@ -89,10 +89,10 @@ def _scores(logits: torch.Tensor, target: torch.Tensor, threshold: float) -> tup
     return loss, acc
 
 
-def _out_of_bag(nets: list[DeformNet], inputs: _Inputs, val_rows: list[torch.Tensor], y: torch.Tensor,
-                cfg: TrainConfig) -> dict:
-    """An ensemble's validation scores out of bag: each image scored by the mean probability of the members that
-    held it out (as :class:`Ensemble` does, through its clamped logit; images every member trained on are left out)."""
+def _held_out(nets: list[DeformNet], inputs: _Inputs, val_rows: list[torch.Tensor], y: torch.Tensor,
+              cfg: TrainConfig) -> tuple[torch.Tensor, torch.Tensor]:
+    """The rows some member held out of its training, and each one's P(deformed): the mean of the members that held
+    it out (one model: its validation split; an ensemble: out of bag, as :class:`Ensemble` predicts)."""
     total, count = torch.zeros(len(y), device=y.device), torch.zeros(len(y), device=y.device)
     with torch.no_grad():
         for net, rows in zip(nets, val_rows):
@@ -102,9 +102,15 @@ def _out_of_bag(nets: list[DeformNet], inputs: _Inputs, val_rows: list[torch.Ten
                                                        for b in rows.split(cfg.batch_size)])
                 count[rows.to(y.device)] += 1
     held = torch.nonzero(count).flatten()
-    loss, acc = (None, None) if len(held) == 0 else _scores(torch.logit(total[held] / count[held], eps=LOGIT_EPS),
-                                                            y[held], cfg.threshold)
-    return {"members": len(nets), "val_loss": loss, "val_acc": acc, "n_val": len(held)}
+    return held, total[held] / count[held]
+
+
+def _out_of_bag(held: tuple[torch.Tensor, torch.Tensor], members: int, y: torch.Tensor, cfg: TrainConfig) -> dict:
+    """An ensemble's validation scores on its ``held`` out images (:func:`_held_out`), through its clamped logit;
+    images every member trained on are left out."""
+    rows, prob = held
+    loss, acc = (None, None) if len(rows) == 0 else _scores(torch.logit(prob, eps=LOGIT_EPS), y[rows], cfg.threshold)
+    return {"members": members, "val_loss": loss, "val_acc": acc, "n_val": len(rows)}
 
 
 def _class_weight(target: torch.Tensor, cfg: TrainConfig) -> torch.Tensor | None:
@@ -253,7 +259,7 @@ class _Trained:
     splits: list[tuple[torch.Tensor, torch.Tensor]]
     adapted: dict | None
     ensemble: dict | None
-    val_prob: torch.Tensor | None  # P(deformed) of the first split's validation images, in a mixture
+    held: tuple[torch.Tensor, torch.Tensor] | None  # label models: rows held out of training, their P(deformed)
 
 
 def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = True,
@@ -282,8 +288,7 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
         if len(cfgs) > 1:
             log.info("backbone %s (%d of %d)", c.backbone, len(trained) + 1, len(cfgs))
         t0 = time.perf_counter()
-        # a mixture's own validation score: ensemble members trained on each other's held-out images, so not theirs
-        trained.append(_train(table, c, outputs, progress, adapt, adapt_paths, len(cfgs) > 1 and cfg.ensemble == 1))
+        trained.append(_train(table, c, outputs, progress, adapt, adapt_paths))
         train_rows, val_rows = trained[-1].splits[0]
         _log_summary(trained[-1].history, c, len(train_rows), len(val_rows), time.perf_counter() - t0)
     first = trained[0]
@@ -291,13 +296,17 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     model_path = out_dir / checkpoint.MODEL_FILE
     seconds = time.perf_counter() - start
     train_rows, val_rows = first.splits[0]
-    mixed = None
-    if first.val_prob is not None:
-        pred = (torch.stack([t.val_prob for t in trained]).mean(0) >= cfg.threshold).float().cpu()
-        y = torch.tensor(table["y"].to_numpy(dtype="float32"))[val_rows]
-        mixed = {"backbones": len(trained), "val_acc": float((pred == y).float().mean()), "n_val": len(val_rows)}
-        log.info("%d backbones together: validation accuracy %.3f (%d images)", len(trained), mixed["val_acc"],
-                 len(val_rows))
+    held_out = mixed = None
+    if first.held is not None:  # every backbone trained on the same splits, so held out the same rows
+        rows = first.held[0].cpu().numpy()
+        prob = torch.stack([t.held[1] for t in trained]).mean(0).cpu()
+        held_out = {"ids": table["id"].iloc[rows].tolist(), "p_deformed": prob.tolist()}
+        if len(trained) > 1 and len(rows):
+            y = torch.tensor(table["y"].to_numpy(dtype="float32"))[rows]
+            mixed = {"backbones": len(trained), "val_acc": float(((prob >= cfg.threshold).float() == y).float().mean()),
+                     "n_val": len(rows)}
+            log.info("%d backbones together: validation accuracy %.3f (%d images)", len(trained), mixed["val_acc"],
+                     len(rows))
     ids = [{"train": table["id"].iloc[t.numpy()].tolist(), "val": table["id"].iloc[v.numpy()].tolist()}
            for t, v in first.splits]
     split_ids = ids[0] | ({"members": ids} if len(ids) > 1 else {})
@@ -305,7 +314,7 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     checkpoint.save(model_path, first.model, cfg, first.weights, first.history, split_ids,
                     None if cfg.target == "label" else outputs, mixture=mixture)
     info = {"weights": first.weights, "seconds": seconds, "history": first.history, "n_train": len(train_rows),
-            "n_val": len(val_rows), "adapted": first.adapted, "ensemble": first.ensemble,
+            "n_val": len(val_rows), "adapted": first.adapted, "ensemble": first.ensemble, "held_out": held_out,
             "config": cfg.model_dump(mode="json")}
     if mixture:
         info["mixture"] = [{"backbone": t.cfg.backbone, "weights": t.weights, "history": t.history,
@@ -316,9 +325,8 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
 
 
 def _train(table: pd.DataFrame, cfg: TrainConfig, outputs: list[str], progress: bool, adapt: Path | None,
-           adapt_paths: list[str], score_val: bool = False) -> _Trained:
-    """Build and train ``cfg.backbone``'s model (its ``train.ensemble`` members) on ``table``; ``score_val``: keep
-    its probabilities on the first split's validation images."""
+           adapt_paths: list[str]) -> _Trained:
+    """Build and train ``cfg.backbone``'s model (its ``train.ensemble`` members) on ``table``."""
     from deformsim.learn.targets import fit_head
 
     device = pick_device(cfg.device)
@@ -351,14 +359,10 @@ def _train(table: pd.DataFrame, cfg: TrainConfig, outputs: list[str], progress: 
         infos = [_adapt(net, opt, inputs, t, y, c, adapt_paths, device, progress)
                  for net, opt, c, (t, _) in zip(nets, opts, seeded, splits)]
         adapted = {"folder": str(adapt), **infos[0]}
+    held = _held_out(nets, inputs, [v for _, v in splits], y, cfg) if cfg.target == "label" else None
     ensemble = None
-    if len(nets) > 1:
-        ensemble = _out_of_bag(nets, inputs, [v for _, v in splits], y, cfg)
+    if len(nets) > 1 and held is not None:
+        ensemble = _out_of_bag(held, len(nets), y, cfg)
         log.info("ensemble of %d: out-of-bag accuracy %s on %d images", len(nets),
                  "-" if ensemble["val_acc"] is None else f"{ensemble['val_acc']:.3f}", ensemble["n_val"])
-    val_prob = None
-    if score_val and len(val_rows):
-        model.eval()
-        with torch.no_grad():
-            val_prob = torch.cat([model.outputs(inputs.all(b, cfg.batch_size)) for b in val_rows.split(cfg.batch_size)])
-    return _Trained(model, cfg, weights, history, splits, adapted, ensemble, val_prob)
+    return _Trained(model, cfg, weights, history, splits, adapted, ensemble, held)
