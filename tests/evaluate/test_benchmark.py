@@ -39,17 +39,11 @@ def test_bad_plans_fail_with_one_line(kwargs):
         Plan(**kwargs)
 
 
-@pytest.mark.blender
-@pytest.mark.torch
-def test_training_reads_nothing_under_the_real_folder(tmp_path, monkeypatch):
-    """The real photos' labels (their folders) are only read to score: training never opens or lists them."""
-    import sys
-
+def _tiny(tmp_path, monkeypatch):
+    """A tiny benchmark's config (16 renders of 32 px) and a folder of 6 labelled photos; the cache under tmp_path."""
     from PIL import Image
 
     from deformsim.config import load_config
-    from deformsim.evaluate.benchmark import Plan, run_benchmark
-    from deformsim.learn import train
 
     monkeypatch.setenv("DEFORMSIM_CACHE", str(tmp_path / "cache"))
     real = tmp_path / "real"
@@ -58,6 +52,19 @@ def test_training_reads_nothing_under_the_real_folder(tmp_path, monkeypatch):
         Image.new("RGB", (40, 30), (40 * k, 90, 200 - 30 * k)).save(real / label / f"{k}.png")
     cfg = load_config("quick", {"generate.n": 16, "render.resolution": 32, "render.samples": 1, "generate.seed": 4,
                                 "train.epochs": 1, "train.image_size": 32, "train.weights": "none"})
+    return cfg, real
+
+
+@pytest.mark.blender
+@pytest.mark.torch
+def test_training_reads_nothing_under_the_real_folder(tmp_path, monkeypatch):
+    """The real photos' labels (their folders) are only read to score: training never opens or lists them."""
+    import sys
+
+    from deformsim.evaluate.benchmark import Plan, run_benchmark
+    from deformsim.learn import train
+
+    cfg, real = _tiny(tmp_path, monkeypatch)
     touched, training = [], [False]
 
     def hook(event, args):
@@ -88,18 +95,9 @@ def test_whole_trains_on_every_render_and_scores_its_validation_split(tmp_path, 
     """With --whole a run's model is the one deformsim run would train (every render); its synthetic score is that
     of the renders its training held out for validation (out of bag for an ensemble), and the results say how the
     models were trained."""
-    from PIL import Image
-
-    from deformsim.config import load_config
     from deformsim.evaluate.benchmark import run_benchmark
 
-    monkeypatch.setenv("DEFORMSIM_CACHE", str(tmp_path / "cache"))
-    real = tmp_path / "real"
-    for k, label in enumerate(["intact"] * 2 + ["deformed"] * 2):
-        (real / label).mkdir(parents=True, exist_ok=True)
-        Image.new("RGB", (40, 30), (60 * k, 90, 200 - 40 * k)).save(real / label / f"{k}.png")
-    cfg = load_config("quick", {"generate.n": 16, "render.resolution": 32, "render.samples": 1, "generate.seed": 4,
-                                "train.epochs": 2, "train.image_size": 32, "train.weights": "none"})
+    cfg, real = _tiny(tmp_path, monkeypatch)
     plan = Plan(train_seeds=1, variants=("black",), whole=True)
     for ensemble in (1, 2):
         cfg.train.ensemble = ensemble
