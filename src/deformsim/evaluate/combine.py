@@ -84,8 +84,8 @@ def merge(inputs: list[dict], sources: list[str]) -> dict:
         if diffs := differences(first, _config(results, source)):
             key, in_first, in_source = diffs[0]
             raise UserError(f"{source} was made with other settings than {sources[0]} ({key}: {shown(in_source, 40)} "
-                            f"against {shown(in_first, 40)}): merge the draws of one config (it may differ in generate.seed and "
-                            "train.seed only)")
+                            f"against {shown(in_first, 40)}): merge the draws of one config (it may differ in "
+                            "generate.seed and train.seed only)")
     seen: dict[tuple, str] = {}
     for results, source in zip(inputs, sources):
         for run in results["runs"]:

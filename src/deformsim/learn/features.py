@@ -6,8 +6,8 @@ activations entering the first trainable layer (of the image as the test-time cr
 so cached predictions equal uncached ones (and the ONNX export) to 1e-5. The stem hash covers the frozen weights
 themselves and ``grey``; the image hash the image file's bytes (sha256) and the version of the image loader, so a
 rewritten image (even one copied over another with the same size and time), other weights or another decoding make
-new files, and identical images share one. Training, prediction and PCA features of every run read the same files. An entry
-that is not a finite float32 tensor of the stem's shape is computed again and replaced.
+new files, and identical images share one. Training, prediction and PCA features of every run read the same files.
+An entry that is not a finite float32 tensor of the stem's shape is computed again and replaced.
 """
 
 from __future__ import annotations
