@@ -191,3 +191,19 @@ def test_an_override_under_a_value_that_is_no_mapping_names_that_value(tmp_path)
     path.write_text("generate: 5\n")
     with pytest.raises(UserError, match=r"invalid generate: Input should be .*dictionary"):
         load_config(path, {"generate.n": 8})
+
+
+def test_the_quick_preset_trains_two_backbones_and_yields_them_to_a_backbone_or_dense_target_given():
+    cfg = load_config("quick")
+    assert (cfg.train.backbone, cfg.train.ensemble_backbones, cfg.train.ensemble) == ("vgg16", ["efficientnet_lite0"], 3)
+    for given in ({"train.target": "severity"}, {"train.target": "localise", "train.ensemble": 1}):
+        dense = load_config("quick", given)
+        assert (dense.train.target, dense.train.ensemble, dense.train.ensemble_backbones) == (given["train.target"], 1, [])
+    assert cfg.train.for_target("family").model_dump() == dense.train.model_copy(update={"target": "family"}).model_dump()
+    assert cfg.train.for_target("label") == cfg.train
+    with pytest.raises(UserError, match="train.ensemble applies to train.target label, not severity"):
+        load_config("quick", {"train.target": "severity", "train.ensemble": 2})
+    lite = load_config("quick", {"train.backbone": "efficientnet_lite0"}).train  # the backbone named, three seeds
+    assert (lite.backbone, lite.ensemble_backbones, lite.ensemble) == ("efficientnet_lite0", [], 3)
+    both = load_config("quick", {"train.backbone": "mobilenet_v2", "train.ensemble_backbones": ["vgg16"]}).train
+    assert (both.backbone, both.ensemble_backbones) == ("mobilenet_v2", ["vgg16"])

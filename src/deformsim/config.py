@@ -33,6 +33,7 @@ from deformsim.schema import (
 PRESET_DIR = Path(__file__).parent / "presets"
 MAX_IMAGES = 10_000_000  # generate.n
 CONFIRM_IMAGES = 100_000  # a plan of more images asks for --yes (deformsim.generate.refusals.check_plan)
+ONE_MODEL = {"ensemble": 1, "ensemble_backbones": []}  # train: what a dense target trains (TrainConfig.for_target)
 
 
 class _Model(StrictModel):
@@ -541,7 +542,8 @@ class TrainConfig(_Model):
     """The condition-assessment model (paper, section IV)."""
 
     backbone: Literal[tuple(BACKBONES)] = Field(
-        "vgg16", description="ImageNet-pretrained network whose features the head learns on (deformsim.learn.backbones)"
+        "vgg16", description="ImageNet-pretrained network whose features the head learns on (deformsim.learn.backbones); "
+        "set by --backbone or --set, it also empties train.ensemble_backbones unless that is named too"
     )
     weights: Literal["imagenet", "offline", "none"] = Field(
         "imagenet", description="imagenet: the backbone's download (torchvision's file, DINOv2's through torch.hub) from "
@@ -596,7 +598,9 @@ class TrainConfig(_Model):
     pseudo_confidence: float = Field(0.9, gt=0.5, lt=1, description="selftrain: keep photos predicted this surely")
     target: Literal["label", "severity", "family", "localise"] = Field(
         "label", description="label: intact/deformed (the paper); on dense datasets also severity (max displacement, "
-        "mm), family (deformation kinds, multi-label) or localise (deformed-region mask)"
+        "mm), family (deformation kinds, multi-label) or localise (deformed-region mask), each one model of "
+        "train.backbone (set by --target or --set, a dense target also sets train.ensemble 1 and empties "
+        "train.ensemble_backbones unless they are named too)"
     )
     schedule: Literal["constant", "cosine"] = Field(
         "constant", description="learning rate over the epochs: constant, or cosine decay to zero (fine-tuning)"
@@ -646,6 +650,11 @@ class TrainConfig(_Model):
         if twice := [b for b in dict.fromkeys(self.ensemble_backbones) if self.ensemble_backbones.count(b) > 1]:
             raise ValueError(f"train.ensemble_backbones names {twice[0]} twice")
         return self
+
+    def for_target(self, target: str) -> "TrainConfig":
+        """This config trained for ``target``: a dense target is one model of ``train.backbone`` (``train.ensemble``
+        and ``train.ensemble_backbones`` shape the label classifier)."""
+        return self.model_copy(update={"target": target, **({} if target == "label" else ONE_MODEL)})
 
 
 class Config(_Model):
@@ -698,7 +707,17 @@ def load_config(source: str | Path | None = None, overrides: dict | None = None,
     if not path.is_file():
         raise UserError(f"config file not found: {source} (presets: {', '.join(list_presets())})")
     given = overrides or {}
-    return validate_config(apply_overrides(read_mapping(path, "config"), given), str(path), given, flags)
+    data = apply_overrides(apply_overrides(read_mapping(path, "config"), given), _yielding(given))
+    return validate_config(data, str(path), given, flags)
+
+
+def _yielding(given: dict) -> dict:
+    """What of the file's model yields to ``given`` overrides that do not name it: its further backbones to a
+    train.backbone (a model of the backbone named), its ensemble too to a dense train.target (one model)."""
+    reset = {"train.ensemble_backbones": []} if "train.backbone" in given else {}
+    if given.get("train.target", "label") != "label":
+        reset |= {f"train.{k}": v for k, v in ONE_MODEL.items()}
+    return {k: v for k, v in reset.items() if k not in given}
 
 
 def apply_overrides(data: dict, overrides: dict | None) -> dict:

@@ -1,10 +1,9 @@
 """Models of several backbones (``train.ensemble_backbones``): one saved model whose prediction, ONNX graph and
-Grad-CAM are the mean of its backbones' models, checked as one file."""
+Grad-CAM are the mean of its backbones' models, checked as one file, and fine-tuned as one."""
 
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import onnx
@@ -15,12 +14,14 @@ from pydantic import ValidationError
 
 from deformsim.config import TrainConfig
 from deformsim.errors import UserError
+from deformsim.identity import file_digest
 from deformsim.learn.checkpoint import read_checkpoint
 from deformsim.learn.data import load_image
-from deformsim.learn.finetune import finetune
+from deformsim.learn.finetune import Recipe, finetune
 from deformsim.learn.onnx import to_onnx
 from deformsim.learn.predict import load
 from deformsim.learn.train import fit
+from tests.learn.blobs import make_blobs
 
 pytestmark = pytest.mark.torch
 
@@ -104,7 +105,14 @@ def test_backbones_named_twice_or_off_label_are_config_errors():
         TrainConfig(ensemble_backbones=["mobilenet_v2"], target="severity")
 
 
-def test_fine_tuning_a_mixture_is_refused_before_any_work(mixture_dir, blobs, tmp_path):
-    with pytest.raises(UserError, match="models of 2 backbones .* fine-tuning takes a model of one backbone"):
-        finetune(mixture_dir, Path(blobs["path"][0]).parent.parent, tmp_path / "out")
-    assert not (tmp_path / "out").exists()
+def test_fine_tuning_a_mixture_adapts_every_backbones_model(mixture_dir, tmp_path):
+    table = make_blobs(tmp_path / "real", 6, seed=11)
+    result = finetune(mixture_dir, tmp_path / "real", tmp_path / "ft", Recipe(part="head", steps=20, lr=1e-2, views=1),
+                      progress=False)
+    before, after = read_checkpoint(mixture_dir)[0], read_checkpoint(result.model_path)[0]
+    for old, new in ((before, after), (before["mixture"][0], after["mixture"][0])):
+        changed = {k.split(".")[0] for k in old["state_dict"] if not torch.equal(old["state_dict"][k], new["state_dict"][k])}
+        assert changed == {"head"}
+    assert after["adapted_on"] == sorted(file_digest(p) for p in table["path"])
+    assert [m.backbone for m in (load(result.model_path).model, *(o.model for o in load(result.model_path).others))] \
+        == ["efficientnet_lite0", "mobilenet_v2"]

@@ -45,7 +45,7 @@ def plan(data_root: Path, tables: dict[str, pd.DataFrame], cfg: TrainConfig) -> 
     variant = composited[0] if composited else "black"
     table = tables[variant] if variant in tables else variant_table(data_root, variant)
     for target in TARGETS:
-        check_target(table, cfg.model_copy(update={"target": target}))
+        check_target(table, cfg.for_target(target))
     return variant, table
 
 
@@ -108,7 +108,7 @@ def run_dense(variant: str, table: pd.DataFrame, cfg: TrainConfig, out_dir: Path
         return {**entry, "skipped": str(exc)}
     entry.update({"n_train": len(train_df), "n_test": len(test_df), "heads": {}})
     for target in TARGETS:
-        tcfg = cfg.model_copy(update={"target": target})
+        tcfg = cfg.for_target(target)
         result = train.fit(train_df, tcfg, out_dir / "models" / f"{variant}_{target}", progress=progress)
         predictor = predict.load(result.model_path)
         head = {"model": str(result.model_path.relative_to(out_dir)), "train_seconds": result.seconds,

@@ -141,7 +141,8 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
     cfg = checkpoint.saved_config(ckpt, path)
     if cfg.target != "label" or cfg.ensemble > 1 or cfg.ensemble_backbones:
         raise UserError(f"{path} is no single label classifier (train.target {cfg.target}, or an ensemble): the "
-                        "few-shot benchmark needs one")
+                        "few-shot benchmark needs one (train it with --set train.ensemble=1 --set "
+                        "'train.ensemble_backbones=[]')")
     table = _table(real)
     check_unseen(path, table["path"])
     y = table["y"].to_numpy()

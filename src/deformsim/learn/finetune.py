@@ -6,7 +6,9 @@ augmented views (:func:`deformsim.learn.data.augmenter`), each put through the s
 feature cache); with ``part="head"`` their pooled features are computed once too, so a step trains the head alone.
 Each step draws (a seeded ``torch.Generator``) a batch of photos, one view of each, mixed with as many synthetic
 images when some are given, so the model keeps what it learnt; the learning rate is small. BatchNorm statistics
-stay as trained (a handful of photos cannot estimate them); the head's dropout is on.
+stay as trained (a handful of photos cannot estimate them); the head's dropout is on. Every network of the model
+adapts this way on its own stem's features: an ensemble's members and each backbone's model
+(``train.ensemble_backbones``); the loss logged is their mean per step.
 
 The saved model lists the sha256 of every photo it was adapted on (``adapted_on``): evaluate, report and the
 benchmarks refuse to score it on any of them, a renamed copy included (:func:`check_unseen`).
@@ -25,7 +27,7 @@ from torch import nn
 from deformsim.atomic import write_json
 from deformsim.errors import UserError
 from deformsim.identity import file_digest
-from deformsim.learn.models import DeformNet
+from deformsim.learn.models import DeformNet, members
 from deformsim.log import get_logger
 
 log = get_logger(__name__)
@@ -177,9 +179,6 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     cfg = checkpoint.saved_config(ckpt, path)
     if cfg.target != "label":
         raise UserError(f"{path} predicts train.target {cfg.target}: fine-tuning needs a label classifier")
-    if cfg.ensemble_backbones:
-        raise UserError(f"{path} holds models of {len(cfg.ensemble_backbones) + 1} backbones "
-                        "(train.ensemble_backbones): fine-tuning takes a model of one backbone")
     photos = real_table(real)
     check_table(photos, f"--real {real}")
     if variant is not None and data is None:
@@ -193,26 +192,33 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     claim(out, "model", identity, overwrite)
 
     set_threads()
-    net, cfg = checkpoint.restore(ckpt, path)
-    net.to(pick_device(cfg.device))
+    device = pick_device(cfg.device)
+    models = [checkpoint.restore(ckpt, path), *checkpoint.restore_mixture(ckpt, path)]
     paths = list(photos["path"])
-    views = photo_views(net, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress, cfg.crop)
-    stems = None
-    if synthetic is not None:
-        from deformsim.learn.features import cached_stem
-
-        stems = cached_stem(net, list(synthetic["path"]), cfg.image_size, cfg.batch_size, progress)
     y, y_mix = torch.tensor(photos["y"].to_numpy()), None if synthetic is None else torch.tensor(synthetic["y"].to_numpy())
-    for member in getattr(net, "members", [net]):  # an ensemble's members adapt one by one
-        mix = None if stems is None else (part_inputs(member, stems, recipe.part, cfg.batch_size), y_mix)
-        losses = adapt(member, part_inputs(member, views, recipe.part, cfg.batch_size), y, recipe, mix)
+    curves = []
+    for k, (net, _) in enumerate(models):  # each backbone's model (train.ensemble_backbones), on its own stem
+        if len(models) > 1:
+            log.info("backbone %s (%d of %d)", net.backbone, k + 1, len(models))
+        net.to(device)
+        views = photo_views(net, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress, cfg.crop)
+        stems = None
+        if synthetic is not None:
+            from deformsim.learn.features import cached_stem
+
+            stems = cached_stem(net, list(synthetic["path"]), cfg.image_size, cfg.batch_size, progress)
+        for member in members(net):  # an ensemble's members adapt one by one
+            mix = None if stems is None else (part_inputs(member, stems, recipe.part, cfg.batch_size), y_mix)
+            curves.append(adapt(member, part_inputs(member, views, recipe.part, cfg.batch_size), y, recipe, mix))
+    losses = torch.tensor(curves).mean(0).tolist()  # per step, the mean over the members and backbones
     adapted_on = sorted(set(ckpt.get("adapted_on", [])) | {file_digest(p) for p in paths})
     seconds = time.perf_counter() - start
     log.info("fine-tuned the %s on %d photos%s in %.1f s: loss %.3f -> %.3f", recipe.part, len(paths),
              "" if synthetic is None else f" and {len(synthetic)} synthetic images", seconds, losses[0], losses[-1])
     with replacing(out, identity, "model") as tmp:
-        checkpoint.save(tmp / checkpoint.MODEL_FILE, net, cfg, ckpt.get("weights", ""), ckpt.get("history", []),
-                        ckpt.get("split", {}), adapted_on=adapted_on)
+        mixture = [(m, c, e.get("weights", "")) for (m, c), e in zip(models[1:], ckpt.get("mixture", []))]
+        checkpoint.save(tmp / checkpoint.MODEL_FILE, models[0][0], cfg, ckpt.get("weights", ""), ckpt.get("history", []),
+                        ckpt.get("split", {}), adapted_on=adapted_on, mixture=mixture)
         write_json(tmp / "finetune.json", {
             "model": str(path), "real": str(real), "photos": len(paths), "n_deformed": int(photos["y"].sum()),
             "data": None if data is None else str(data), "variant": variant,

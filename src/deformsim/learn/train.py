@@ -44,7 +44,7 @@ class TrainResult:
     model_path: Path
     history: list[dict]  # per epoch: epoch, loss, acc (train), val_loss, val_acc (None without a val split), seconds
     # (other targets: score and val_score instead of acc and val_acc, and the score's name as metric)
-    weights: str
+    weights: str  # where the ImageNet weights came from; several backbones' joined by " + "
     seconds: float
 
 
@@ -321,7 +321,7 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
                             "adapted": t.adapted, "ensemble": t.ensemble} for t in trained[1:]]
         info["mixture_validation"] = mixed
     write_json(out_dir / "train.json", info)
-    return TrainResult(model_path, first.history, first.weights, seconds)
+    return TrainResult(model_path, first.history, " + ".join(t.weights for t in trained), seconds)
 
 
 def _train(table: pd.DataFrame, cfg: TrainConfig, outputs: list[str], progress: bool, adapt: Path | None,
