@@ -1,4 +1,5 @@
-"""Benchmarks combined after the fact: merged draws pool their runs, a mean is scored on the mean probabilities."""
+"""Benchmarks combined after the fact: merged draws pool their runs, a mean is scored on the mean probabilities, and
+a bag scores blocks of consecutive training seeds as the ensembles train.ensemble trains."""
 
 from __future__ import annotations
 
@@ -8,15 +9,16 @@ import numpy as np
 import pytest
 
 from deformsim.errors import UserError
-from deformsim.evaluate.combine import mean, merge
+from deformsim.evaluate.combine import bag, mean, merge
 from deformsim.evaluate.metrics import compute_metrics
 from deformsim.evaluate.paired import METRICS, compare
 
 
-def _results(prob: np.ndarray, y: np.ndarray, data_seeds=(0, 1), threshold: float = 0.5) -> dict:
-    """A benchmark of one variant: 2 training seeds per data seed, row k of ``prob`` the k-th run's predictions."""
+def _results(prob: np.ndarray, y: np.ndarray, data_seeds=(0, 1), threshold: float = 0.5, seeds: int = 2) -> dict:
+    """A benchmark of one variant: ``seeds`` training seeds per data seed, row k of ``prob`` the k-th run's
+    predictions."""
     runs = []
-    for k, (d, t) in enumerate((d, t) for d in data_seeds for t in range(2)):
+    for k, (d, t) in enumerate((d, t) for d in data_seeds for t in range(seeds)):
         m = compute_metrics(y, prob[k], threshold)
         runs.append({"variant": "backgrounds", "data_seed": d, "composite_seed": 0, "train_seed": t,
                      "model": f"models/{d}-{t}",
@@ -129,3 +131,26 @@ def test_cli_writes_the_combined_results_and_never_over_an_input(photos, tmp_pat
     assert res.exit_code == 0, res.output
     assert "over 8 runs" in res.output and (tmp_path / "ab" / "report.html").is_file()
     assert len(json.loads((tmp_path / "ab" / "results.json").read_text())["runs"]) == 8
+    res = CliRunner().invoke(app, ["bench", "bag", str(tmp_path / "ab"), "--members", "2", "--out", str(tmp_path / "k2")])
+    assert res.exit_code == 0, res.output
+    assert len(json.loads((tmp_path / "k2" / "results.json").read_text())["runs"]) == 4
+
+
+def test_a_bag_scores_each_block_of_consecutive_seeds_on_its_mean_probabilities():
+    rng = np.random.default_rng(1)
+    y = (rng.random(40) < 0.6).astype(int)
+    prob = rng.random((10, 40))
+    bagged = bag(_results(prob, y, (0, 1), seeds=5), 2, "a")  # per draw seeds 0-1 and 2-3; seed 4 has no block
+    assert [(r["data_seed"], r["train_seed"]) for r in bagged["runs"]] == [(0, 0), (0, 2), (1, 0), (1, 2)]
+    for run, rows in zip(bagged["runs"], ([0, 1], [2, 3], [5, 6], [7, 8])):
+        mean_prob = prob[rows].mean(0)
+        np.testing.assert_allclose(run["real_predictions"], mean_prob)
+        assert run["real"]["accuracy"] == pytest.approx(np.mean((mean_prob >= 0.5) == y))
+        assert run["synthetic"]["f1"] == pytest.approx(0.85 if run["train_seed"] == 0 else 1.05)
+    assert bagged["plan"] | {"bagged": None} == {"bagged": None, "whole": False, "members": 2}
+    c = compare(bagged, bagged)["backgrounds"]
+    assert c["pairs"] == 4 and all(c["runs"][k]["diff"] == 0 for k in METRICS)
+    with pytest.raises(UserError, match=r"^a has no draw with 6 consecutive training seeds: run it with --train-seeds 6"):
+        bag(_results(prob, y, (0, 1), seeds=5), 6, "a")
+    with pytest.raises(UserError, match=r"--members must lie in \[2, 16\], got 1"):
+        bag(_results(prob, y, (0, 1), seeds=5), 1, "a")

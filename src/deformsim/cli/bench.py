@@ -73,6 +73,7 @@ def register(app: typer.Typer) -> None:
 
     bench_app.command("merge")(fail_cleanly(merge))
     bench_app.command("mean")(fail_cleanly(mean))
+    bench_app.command("bag")(fail_cleanly(bag))
     bench_app.command("fewshot")(fail_cleanly(fewshot))
 
 
@@ -93,6 +94,16 @@ def mean(results: list[Path] = _INPUTS, out: Path = _OUT) -> None:
     from deformsim.evaluate.combine import mean as combine
 
     _combined(combine, results, out)
+
+
+def bag(results: Path = typer.Argument(..., help="a benchmark's results.json (or its folder)"),
+        members: int = typer.Option(..., "--members", "-k", help="training seeds per ensemble (2-16)"),
+        out: Path = _OUT) -> None:
+    """Score each draw's consecutive training seeds in blocks of --members as one ensemble each: with --whole, the
+    model that train.ensemble trains."""
+    from deformsim.evaluate.combine import bag as combine
+
+    _combined(lambda inputs, sources: combine(inputs[0], members, sources[0]), [results], out)
 
 
 def _combined(combine, results: list[Path], out: Path) -> None:

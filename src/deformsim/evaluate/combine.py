@@ -1,6 +1,7 @@
 """Sim-to-real benchmarks combined after the fact, on the same photos: ``merge`` pools the runs of several (other
 render draws, so a comparison pairs over all of them), ``mean`` scores each run's mean prediction with its paired runs
-in the others (an ensemble of models trained apart, such as two backbones on the same renders).
+in the others (an ensemble of models trained apart, such as two backbones on the same renders), and ``bag`` scores
+blocks of one benchmark's consecutive training seeds as one run each (the models ``train.ensemble`` trains).
 
 Runs pair as :mod:`deformsim.evaluate.paired` pairs them: by variant, data and background seed and training seed. The
 real metrics of a ``mean`` run are those of its mean probabilities; its synthetic figures are its members' mean (their
@@ -114,3 +115,32 @@ def mean(inputs: list[dict], sources: list[str]) -> dict:
     if not runs:
         raise UserError(f"no run of {sources[0]} has a run with the same variant and seeds in every other benchmark")
     return _results(inputs, runs, sources, "mean of")
+
+
+def bag(results: dict, members: int, source: str) -> dict:
+    """Each draw's runs of training seeds s, s+1, ..., s+members-1 (s its first seed, then every ``members``-th) as
+    one run of seed s, scored on their mean probabilities: with ``--whole`` the model ``train.ensemble: members``
+    trains with ``train.seed`` s. Seeds of no complete block are left out; one line when no draw has one."""
+    if not 2 <= members <= 16:
+        raise UserError(f"--members must lie in [2, 16], got {members}")
+    y = np.asarray(results["real_labels"])
+    threshold = _threshold(results)
+    draws: dict[tuple, dict[int, dict]] = {}
+    for run in results["runs"]:
+        draws.setdefault(run_key(run)[:3], {})[run["train_seed"]] = run
+    runs = []
+    for draw, by_seed in draws.items():
+        first = min(by_seed)
+        for start in range(first, max(by_seed) + 1, members):
+            block = [by_seed.get(start + k) for k in range(members)]
+            if None in block:
+                continue
+            prob = np.mean([r["real_predictions"] for r in block], axis=0)
+            synthetic = {k: float(np.mean([r["synthetic"][k] for r in block])) for k in ("accuracy", "f1")}
+            runs.append(run_record((*draw, start), [r["model"] for r in block], y, prob, threshold, synthetic))
+    if not runs:
+        raise UserError(f"{source} has no draw with {members} consecutive training seeds: run it with --train-seeds "
+                        f"{members} or more")
+    out = _results([results], runs, [source], "bagged")
+    out["plan"]["members"] = members
+    return out
