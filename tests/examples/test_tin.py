@@ -149,6 +149,12 @@ def test_the_config_stands_tins_upright_with_side_and_top_views():
     assert cfg.render.resolution >= 192 and set(cfg.lighting.hdris) <= {"interior", "studio"}
 
 
+def test_the_config_trains_the_quick_presets_model():
+    ours, quick = load_config(CONFIG).train, load_config("quick").train
+    assert (ours.backbone, ours.ensemble_backbones, ours.ensemble) == (quick.backbone, quick.ensemble_backbones,
+                                                                        quick.ensemble)
+
+
 @pytest.mark.blender
 def test_the_example_runs_end_to_end(tmp_path):
     from deformsim.dataset.manifest import read_manifest
