@@ -148,6 +148,7 @@ def test_a_bag_scores_each_block_of_consecutive_seeds_on_its_mean_probabilities(
         assert run["real"]["accuracy"] == pytest.approx(np.mean((mean_prob >= 0.5) == y))
         assert run["synthetic"]["f1"] == pytest.approx(0.85 if run["train_seed"] == 0 else 1.05)
     assert bagged["plan"] | {"bagged": None} == {"bagged": None, "whole": False, "members": 2}
+    assert bagged["ensembles"]["backgrounds"]["members"] == 4  # seeds 0-3 of each draw
     c = compare(bagged, bagged)["backgrounds"]
     assert c["pairs"] == 4 and all(c["runs"][k]["diff"] == 0 for k in METRICS)
     with pytest.raises(UserError, match=r"^a has no draw with 6 consecutive training seeds: run it with --train-seeds 6"):

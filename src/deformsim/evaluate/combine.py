@@ -143,4 +143,6 @@ def bag(results: dict, members: int, source: str) -> dict:
                         f"{members} or more")
     out = _results([results], runs, [source], "bagged")
     out["plan"]["members"] = members
+    for ensemble in out["ensembles"].values():  # a draw's ensemble of its blocks is that of their seeds
+        ensemble["members"] *= members
     return out
