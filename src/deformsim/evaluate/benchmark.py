@@ -87,14 +87,13 @@ def run_record(key: tuple, model, y: np.ndarray, prob: np.ndarray, threshold: fl
             "synthetic": {k: synthetic[k] for k in ("accuracy", "f1")}, "real_predictions": [float(p) for p in prob]}
 
 
-def _synthetic(model_dir: Path, predictor, table, test_df, threshold: float) -> dict:
+def _synthetic(held: dict, predictor, table, test_df, threshold: float) -> dict:
     """A run's synthetic scores: on its held-out test split, or (``test_df`` None: trained on every render) on the
-    renders its training held out, by the probabilities it recorded (out of bag for an ensemble)."""
+    renders its training ``held`` out, by the probabilities ``fit`` returned (out of bag for an ensemble)."""
     from deformsim.evaluate.metrics import compute_metrics
 
     if test_df is not None:
         return compute_metrics(test_df["y"].to_numpy(), predictor.predict_proba(list(test_df["path"])), threshold)
-    held = json.loads((model_dir / "train.json").read_text(encoding="utf-8"))["held_out"]
     y = table.set_index("id").loc[held["ids"], "y"].to_numpy()
     return compute_metrics(y, np.asarray(held["p_deformed"]), threshold)
 
@@ -184,10 +183,10 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
                     model_dir = out / "models" / f"{folder.name}-{name}-train{train_cfg.seed}"
                     if model_dir.exists():
                         shutil.rmtree(model_dir)  # the benchmark's own output: retrained from scratch
-                    fit(train_df, train_cfg, model_dir, progress=progress, adapt=adapt)
+                    trained = fit(train_df, train_cfg, model_dir, progress=progress, adapt=adapt)
                     predictor = load(model_dir)
                     check_unseen(model_dir, real_df["path"])
-                    synth = _synthetic(model_dir, predictor, table, test_df, train_cfg.threshold)
+                    synth = _synthetic(trained.held_out, predictor, table, test_df, train_cfg.threshold)
                     prob = predictor.predict_proba(list(real_df["path"]))
                     key = (variant, cfg_d.generate.seed, c if variant not in RENDERED else None, train_cfg.seed)
                     runs.append(run_record(key, str(model_dir), real_df["y"].to_numpy(), prob, train_cfg.threshold,

@@ -46,6 +46,7 @@ class TrainResult:
     # (other targets: score and val_score instead of acc and val_acc, and the score's name as metric)
     weights: str  # where the ImageNet weights came from; several backbones' joined by " + "
     seconds: float
+    held_out: dict | None  # label models: ids and P(deformed) of the images training held out (train.json)
 
 
 class _Inputs:
@@ -321,7 +322,7 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
                             "adapted": t.adapted, "ensemble": t.ensemble} for t in trained[1:]]
         info["mixture_validation"] = mixed
     write_json(out_dir / "train.json", info)
-    return TrainResult(model_path, first.history, " + ".join(t.weights for t in trained), seconds)
+    return TrainResult(model_path, first.history, " + ".join(t.weights for t in trained), seconds, held_out)
 
 
 def _train(table: pd.DataFrame, cfg: TrainConfig, outputs: list[str], progress: bool, adapt: Path | None,
