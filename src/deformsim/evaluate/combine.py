@@ -19,7 +19,7 @@ from pydantic import ValidationError
 from deformsim.config import Config
 from deformsim.errors import UserError
 from deformsim.evaluate.benchmark import aggregate, run_record, trained_on_all
-from deformsim.evaluate.paired import check_same_photos, ensembles, run_key
+from deformsim.evaluate.paired import check_same_photos, draw_groups, ensembles, run_key
 from deformsim.identity import settings
 from deformsim.outputs import differences
 from deformsim.schema import clip, shown
@@ -125,19 +125,18 @@ def bag(results: dict, members: int, source: str) -> dict:
         raise UserError(f"--members must lie in [2, 16], got {members}")
     y = np.asarray(results["real_labels"])
     threshold = _threshold(results)
-    draws: dict[tuple, dict[int, dict]] = {}
-    for run in results["runs"]:
-        draws.setdefault(run_key(run)[:3], {})[run["train_seed"]] = run
     runs = []
-    for draw, by_seed in draws.items():
-        first = min(by_seed)
-        for start in range(first, max(by_seed) + 1, members):
-            block = [by_seed.get(start + k) for k in range(members)]
-            if None in block:
-                continue
-            prob = np.mean([r["real_predictions"] for r in block], axis=0)
-            synthetic = {k: float(np.mean([r["synthetic"][k] for r in block])) for k in ("accuracy", "f1")}
-            runs.append(run_record((*draw, start), [r["model"] for r in block], y, prob, threshold, synthetic))
+    for variant, draws in draw_groups(results["runs"]).items():
+        for draw, group in draws.items():
+            by_seed = {r["train_seed"]: r for r in group}
+            for start in range(min(by_seed), max(by_seed) + 1, members):
+                block = [by_seed.get(start + k) for k in range(members)]
+                if None in block:
+                    continue
+                prob = np.mean([r["real_predictions"] for r in block], axis=0)
+                synthetic = {k: float(np.mean([r["synthetic"][k] for r in block])) for k in ("accuracy", "f1")}
+                runs.append(run_record((variant, *draw, start), [r["model"] for r in block], y, prob, threshold,
+                                       synthetic))
     if not runs:
         raise UserError(f"{source} has no draw with {members} consecutive training seeds: run it with --train-seeds "
                         f"{members} or more")

@@ -51,7 +51,7 @@ def ensembles(results: dict) -> dict[str, dict]:
     y = np.asarray(results["real_labels"])
     threshold = results["settings"]["train"]["threshold"]
     out = {}
-    for variant, groups in _groups(results["runs"]).items():
+    for variant, groups in draw_groups(results["runs"]).items():
         prob = np.stack([np.mean([r["real_predictions"] for r in runs], axis=0) for runs in groups.values()])
         s = scores(prob, y, threshold)
         row = {"n_draws": len(groups), "members": min(len(runs) for runs in groups.values())}
@@ -69,7 +69,7 @@ def often_wrong(results: dict) -> dict[str, list[dict]]:
     y = np.asarray(results["real_labels"], dtype=bool)
     threshold = results["settings"]["train"]["threshold"]
     out = {}
-    for variant, groups in _groups(results["runs"]).items():
+    for variant, groups in draw_groups(results["runs"]).items():
         prob = np.array([r["real_predictions"] for runs in groups.values() for r in runs])
         wrong, mean = ((prob >= threshold) != y).sum(axis=0), prob.mean(axis=0)
         off = np.where(y, -mean, mean)  # the mean leaning to the wrong class
@@ -80,7 +80,8 @@ def often_wrong(results: dict) -> dict[str, list[dict]]:
     return out
 
 
-def _groups(runs: list[dict]) -> dict[str, dict[tuple, list[dict]]]:
+def draw_groups(runs: list[dict]) -> dict[str, dict[tuple, list[dict]]]:
+    """``runs`` by variant, then by draw (data and background seed)."""
     out: dict[str, dict[tuple, list[dict]]] = {}
     for r in runs:
         out.setdefault(r["variant"], {}).setdefault(_draw(r), []).append(r)
