@@ -170,6 +170,7 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     from deformsim.dataset.tables import check_table, load_table
     from deformsim.learn import checkpoint
     from deformsim.learn.device import pick_device, set_threads
+    from deformsim.learn.features import cached_stem
     from deformsim.learn.stage import images_digest
     from deformsim.outputs import check_apart, check_folder_target, check_outside, claim, replacing
 
@@ -204,8 +205,6 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
         views = photo_views(net, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress, cfg.crop)
         stems = None
         if synthetic is not None:
-            from deformsim.learn.features import cached_stem
-
             stems = cached_stem(net, list(synthetic["path"]), cfg.image_size, cfg.batch_size, progress)
         for member in members(net):  # an ensemble's members adapt one by one
             mix = None if stems is None else (part_inputs(member, stems, recipe.part, cfg.batch_size), y_mix)
