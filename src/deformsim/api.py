@@ -25,6 +25,7 @@ from deformsim.log import get_logger
 
 if TYPE_CHECKING:
     from deformsim.evaluate.benchmark import Plan
+    from deformsim.learn.adapter import AdaptRecipe
     from deformsim.learn.finetune import Recipe
     from deformsim.spec.model import Spec
 
@@ -49,6 +50,7 @@ class Prediction:
     paths: list[Path]
     columns: dict[str, Sequence]
     headings: tuple[str, ...]
+    prior: float | None = None  # with predict --adapt: the images' estimated share of deformed parts
 
 
 def _path(p: str | Path | None) -> Path | None:
@@ -146,9 +148,25 @@ class Engine:
         return finetune(Path(model), Path(real), Path(out), recipe or Recipe(), _path(data), variant,
                         overwrite=overwrite, progress=self.progress)
 
-    def predict(self, model: str | Path, images: Sequence[str | Path], csv: str | Path | None = None) -> Prediction:
+    def adapt(self, model: str | Path, photos: str | Path, out: str | Path, recipe: AdaptRecipe | None = None,
+              overwrite: bool = False):
+        """Adapt a trained model to a folder of unlabelled photos of real parts (no label read); a
+        :class:`deformsim.learn.adapt_stage.Adapted`. A model of other settings or inputs in ``out`` is refused
+        unless ``overwrite``."""
+        from deformsim.learn.adapt_stage import adapt_model
+        from deformsim.learn.adapter import AdaptRecipe
+
+        return adapt_model(Path(model), Path(photos), Path(out), recipe or AdaptRecipe(), overwrite=overwrite,
+                           progress=self.progress)
+
+    def predict(self, model: str | Path, images: Sequence[str | Path], csv: str | Path | None = None,
+                adapt: AdaptRecipe | None = None) -> Prediction:
         """P(deformed) and the label of each image (files, or folders searched recursively), or what a model of
-        another ``train.target`` predicts; also written to ``csv`` (columns path, then the prediction's)."""
+        another ``train.target`` predicts; also written to ``csv`` (columns path, then the prediction's).
+
+        ``adapt``: first adapt the model, in memory, to the images themselves (no label read; at least 8 distinct
+        photos, :mod:`deformsim.learn.adapt_stage`); the prediction's ``prior`` is their estimated share of
+        deformed parts."""
         import pandas as pd
 
         from deformsim.atomic import atomic_path
@@ -160,9 +178,17 @@ class Engine:
         if csv is not None:
             check_file_target(csv, "--csv", [model, *paths])
         predictor = load(model)
+        prior = None
+        if adapt is not None:
+            from deformsim.learn.adapt_stage import check_adaptable, distinct_photos, fit_on
+
+            check_adaptable(predictor)
+            distinct, _ = distinct_photos(paths, "predict --adapt")
+            predictor.adapter, _ = fit_on(predictor, distinct, adapt)
+            prior = predictor.adapter.prior
         if predictor.target == "label":
             proba, labels = predictor.predict(paths)
-            prediction = Prediction(paths, {"p_deformed": proba, "label": labels}, ("P(deformed)", "label"))
+            prediction = Prediction(paths, {"p_deformed": proba, "label": labels}, ("P(deformed)", "label"), prior)
         else:
             prediction = _target_prediction(predictor, paths)
         if csv is not None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import typer
 
 from deformsim.cli import (
+    adapt,
     bake,
     bench,
     composite,
@@ -48,6 +49,6 @@ def main(
     set_verbosity("quiet" if quiet else "verbose" if verbose else "normal")
 
 
-for module in (generate, bake, composite, export, learn, finetune, evaluate, spec, show, pipeline, bench, configuration):
+for module in (generate, bake, composite, export, learn, finetune, adapt, evaluate, spec, show, pipeline, bench, configuration):
     module.register(app)
 use_words(app)

@@ -75,6 +75,7 @@ def register(app: typer.Typer) -> None:
     bench_app.command("mean")(fail_cleanly(mean))
     bench_app.command("bag")(fail_cleanly(bag))
     bench_app.command("fewshot")(fail_cleanly(fewshot))
+    bench_app.command("adapt")(fail_cleanly(adapt))
 
 
 _INPUTS = typer.Argument(..., help="two or more benchmarks' results.json (or their folders), on the same photos")
@@ -159,3 +160,26 @@ def fewshot(
     console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'fewshot.json'}",
                   highlight=False, soft_wrap=True)
     fewshot_summary(results, out / "fewshot.png")
+
+
+def adapt(
+    model: Path = typer.Argument(..., help="trained model folder (from deformsim train) or its model.pt"),
+    real: Path = typer.Option(..., "--real", help="labelled real photos (intact/ and deformed/): adapted on with "
+                              "their labels unread, scored with them"),
+    out: Path = typer.Option(Path("runs/adapt"), "--out", "-o", help="folder for adapt.json"),
+    methods: str = typer.Option("probe,prior,probe+prior", "--methods", help="comma-separated methods of deformsim "
+                                "adapt"),
+    folds: int = typer.Option(2, "--folds", help="inductive protocol: folds of the photos, each scored by the model "
+                              "adapted on the others"),
+    seed: int = typer.Option(0, "--seed", help="seed of the folds and the intervals"),
+    progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
+) -> None:
+    """Adapt a model to real photos without their labels, transductive (adapted on the photos it is scored on) and
+    inductive (on the other folds); print each method's metrics and paired difference to the unadapted model."""
+    from deformsim.cli.summary import adaptation_summary
+    from deformsim.evaluate.adaptation import run_adaptation
+
+    result = run_adaptation(model, real, out, tuple(m.strip() for m in methods.split(",") if m.strip()), folds,
+                            seed=seed, progress=progress)
+    adaptation_summary(result)
+    console.print(f"results: {out / 'adapt.json'}", highlight=False, soft_wrap=True)

@@ -61,9 +61,16 @@ def predict(
     model_dir: Path = typer.Argument(..., help="folder with model.pt (or the file)"),
     images: list[Path] = typer.Argument(..., help="image files or folders"),
     csv: Optional[Path] = typer.Option(None, "--csv", help="also write path,p_deformed,label to this CSV"),
+    adapt: bool = typer.Option(False, "--adapt", help="first adapt the model to these images (at least 8; no label "
+                               "read), as deformsim adapt --method probe does, in memory"),
 ) -> None:
     """Print P(deformed) and the predicted label of each image (or what a --target model predicts)."""
-    prediction = plain_engine().predict(model_dir, images, csv)
+    from deformsim.learn.adapter import AdaptRecipe
+
+    prediction = plain_engine().predict(model_dir, images, csv, AdaptRecipe() if adapt else None)
+    if prediction.prior is not None:
+        err_console.print(f"adapted to these {len(prediction.paths)} images: an estimated {prediction.prior:.0%} of "
+                          "them deformed", highlight=False, soft_wrap=True)
     rows = [[str(p), *(v[i] if isinstance(v[i], str) else f"{v[i]:.4f}" for v in prediction.columns.values())]
             for i, p in enumerate(prediction.paths)]
     if console.is_terminal:

@@ -1,9 +1,11 @@
 """A trained model's file, ``model.pt``: the state dict, training config, weights source, classes, history, split.
 
 A model of another ``train.target`` than ``label`` also records ``outputs``: the names of what it predicts
-(its families, ``max_disp_mm`` or ``region``), from which :func:`restore` rebuilds its head. A model trained with
-``train.ensemble_backbones`` holds each further backbone's model in ``mixture`` (its state dict, config and weights
-source), checked as the first is; :func:`restore` gives the first, :func:`restore_mixture` the others.
+(its families, ``max_disp_mm`` or ``region``), from which :func:`restore` rebuilds its head. A model adapted to
+unlabelled photos holds its ``adapter`` (:mod:`deformsim.learn.adapter`) and the sha256 of those photos
+(``adapted_unlabelled``). A model trained with ``train.ensemble_backbones`` holds each further backbone's model in
+``mixture`` (its state dict, config and weights source), checked as the first is; :func:`restore` gives the first,
+:func:`restore_mixture` the others.
 """
 
 from __future__ import annotations
@@ -90,9 +92,14 @@ def read_checkpoint(model_path: str | Path) -> tuple[dict, Path]:
     if outputs is not None and not (isinstance(outputs, list) and 0 < len(outputs) <= MAX_OUTPUTS
                                     and all(isinstance(o, str) for o in outputs)):
         raise UserError(f"{path} is not a deformsim model: its outputs are not 1 to {MAX_OUTPUTS} names")
-    adapted_on = ckpt.get("adapted_on", [])
-    if not (isinstance(adapted_on, list) and all(isinstance(d, str) and _SHA256.fullmatch(d) for d in adapted_on)):
-        raise UserError(f"{path} is not a deformsim model: its adapted_on is not a list of sha256 digests")
+    for key in ("adapted_on", "adapted_unlabelled"):
+        digests = ckpt.get(key, [])
+        if not (isinstance(digests, list) and all(isinstance(d, str) and _SHA256.fullmatch(d) for d in digests)):
+            raise UserError(f"{path} is not a deformsim model: its {key} is not a list of sha256 digests")
+    if "adapter" in ckpt:
+        from deformsim.learn.adapter import Adapter
+
+        Adapter.from_dict(ckpt["adapter"], str(path))
     classes = ckpt.get("classes", list(CLASSES))
     if not (isinstance(classes, list) and len(classes) == 2 and all(isinstance(c, str) for c in classes)):
         raise UserError(f"{path} is not a deformsim model: its classes are not two names")

@@ -59,15 +59,20 @@ class Recipe:
 def check_unseen(model: str | Path, paths: Iterable[str | Path]) -> None:
     """Refuse with one line to score ``model`` (model.pt or its folder, already read by
     :func:`deformsim.learn.checkpoint.read_checkpoint`) on an image it was fine-tuned on, by content: a renamed
-    copy too."""
+    copy too; warn that the score is transductive when it adapted to some of them unlabelled."""
     from deformsim.learn.checkpoint import MODEL_FILE
 
     path = Path(model) / MODEL_FILE if Path(model).is_dir() else Path(model)
-    seen = set(torch.load(path, map_location="cpu", weights_only=True, mmap=True).get("adapted_on", []))
-    hits = [p for p in paths if file_digest(p) in seen] if seen else []
+    ckpt = torch.load(path, map_location="cpu", weights_only=True, mmap=True)
+    seen, unlabelled = set(ckpt.get("adapted_on", [])), set(ckpt.get("adapted_unlabelled", []))
+    digests = [file_digest(p) for p in paths] if seen or unlabelled else []
+    hits = [p for p, d in zip(paths, digests) if d in seen]
     if hits:
         raise UserError(f"{model} was fine-tuned on {len(hits)} of these images (by content), e.g. {hits[0]}: "
                         "score it on photos it has not seen")
+    if (shared := sum(d in unlabelled for d in digests)):
+        log.warning("transductive: %s adapted to %d of these %d images, labels unread (deformsim adapt)", model,
+                    shared, len(digests))
 
 
 def photo_views(model: DeformNet, paths: list[str], size: int, views: int, seed: int, batch_size: int,

@@ -10,10 +10,12 @@ import torch
 
 from deformsim.dataset.images import CLASSES
 from deformsim.errors import UserError
+from deformsim.learn.adapter import Adapter
 from deformsim.learn.checkpoint import read_checkpoint, restore
 from deformsim.learn.data import ImageSet
 from deformsim.learn.device import pick_device, set_threads
 from deformsim.learn.features import cached_stem
+from deformsim.learn.models import members
 from deformsim.log import progress_bar
 
 LAYERS = ("penultimate", "pooled")
@@ -43,6 +45,7 @@ class Predictor:
         self.target: str = self.cfg.target
         self.outputs: list[str] = ckpt.get("outputs", ["deformed"])
         self.progress = progress
+        self.adapter = Adapter.from_dict(ckpt["adapter"], str(path)) if "adapter" in ckpt else None
 
     @property
     def _show_progress(self) -> bool:
@@ -73,10 +76,28 @@ class Predictor:
         self._needs("label")
         return self.predict_outputs(paths)
 
-    @torch.inference_mode()
     def predict_outputs(self, paths: list[str | Path]) -> np.ndarray:
-        """What the model predicts, float64: P(deformed) (N,), severity in mm (N,), family probabilities
-        (N, K, in the order of ``outputs``) or region probability maps (N, s, s)."""
+        """What the model predicts, float64: P(deformed) (N,) (adapted to the user's photos when the model was,
+        :mod:`deformsim.learn.adapter`), severity in mm (N,), family probabilities (N, K, in the order of
+        ``outputs``) or region probability maps (N, s, s)."""
+        out = self.synthetic_outputs(paths)
+        if self.adapter is None or not len(out):
+            return out
+        return self.adapter.apply(out, self.adapter_features(paths) if self.adapter.coef else None)
+
+    @torch.inference_mode()
+    def adapter_features(self, paths: list[str | Path]) -> np.ndarray:
+        """What an adapter's probe reads (N, D): each backbone's pooled features of the plain image, the mean over an
+        ensemble's members, side by side."""
+        out = []
+        for p in [self, *self.others]:
+            nets = members(p.model)
+            out.append(torch.cat([torch.stack([m.pooled_raw(z) for m in nets]).mean(0).cpu() for z in p._stems(paths)]))
+        return torch.cat(out, 1).double().numpy()
+
+    @torch.inference_mode()
+    def synthetic_outputs(self, paths: list[str | Path]) -> np.ndarray:
+        """:meth:`predict_outputs` of the model as trained on renders (before any adapter)."""
         if not paths:
             return np.zeros(0)
         views = []
@@ -86,7 +107,7 @@ class Predictor:
         own = torch.stack(views).mean(0).numpy()
         if not self.others:
             return own
-        return np.mean([own] + [other.predict_outputs(paths) for other in self.others], axis=0)
+        return np.mean([own] + [other.synthetic_outputs(paths) for other in self.others], axis=0)
 
     def gradcam(self, paths: list[str | Path]) -> np.ndarray:
         """Grad-CAM heatmaps (N, h, w) in [0, 1] of P(deformed) (:mod:`deformsim.learn.gradcam`); a mixture's are
