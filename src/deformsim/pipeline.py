@@ -61,10 +61,7 @@ class Stages:
 
 def _inputs(cfg: Config, real: Path | None) -> dict[str, Path | None]:
     """Every file and folder a run reads, by what it is."""
-    surface = cfg.render.surface
-    return {"real photos": real, "backgrounds folder": cfg.composite.backgrounds, "mesh": cfg.object.mesh,
-            "spec": cfg.object.spec, "HDRI folder": cfg.lighting.hdri_dir,
-            "surface photo folder": surface.photos if surface is not None else None}
+    return {"real photos": real, "backgrounds folder": cfg.composite.backgrounds, **cfg.input_paths()}
 
 
 def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True, overwrite: bool = False) -> RunResult:

@@ -80,11 +80,7 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
         raise UserError(f"{out} {conflict}")
     if conflict is not None:
         check_folder_target(out, "--out", replace=True)  # it is removed as a whole
-        surface = cfg.render.surface
-        check_apart(out, "--out", {"mesh": cfg.object.mesh, "spec": cfg.object.spec, "HDRI folder": cfg.lighting.hdri_dir,
-                                   "surface photo folder": surface.photos if surface is not None else None,
-                                   "artwork photo folder": cfg.render.appearance.photos
-                                   if cfg.render.appearance is not None else None})
+        check_apart(out, "--out", cfg.input_paths())
     size, hint = check_part_mesh(spec, cfg.object.mesh, cfg.object.spec)
     if hint:
         log.warning("mesh %s: %s", cfg.object.mesh, hint)
