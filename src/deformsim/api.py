@@ -148,18 +148,25 @@ class Engine:
 
     def predict(self, model: str | Path, images: Sequence[str | Path], csv: str | Path | None = None) -> Prediction:
         """P(deformed) and the label of each image (files, or folders searched recursively), or what a model of
-        another ``train.target`` predicts; also written to ``csv`` (columns path, then the prediction's)."""
+        another ``train.target`` predicts; also written to ``csv`` (columns path, then the prediction's). ``model``:
+        model.pt, its folder, or an exported ``.onnx`` file (read with onnxruntime alone, no torch)."""
         import pandas as pd
 
         from deformsim.atomic import atomic_path
         from deformsim.dataset.real import expand_images
-        from deformsim.learn.predict import load
         from deformsim.outputs import check_file_target
 
         paths = expand_images(list(images))
         if csv is not None:
             check_file_target(csv, "--csv", [model, *paths])
-        predictor = load(model)
+        if Path(model).suffix.lower() == ".onnx":
+            from deformsim.learn.onnx_predict import OnnxPredictor
+
+            predictor = OnnxPredictor(model)
+        else:
+            from deformsim.learn.predict import load
+
+            predictor = load(model)
         if predictor.target == "label":
             proba, labels = predictor.predict(paths)
             prediction = Prediction(paths, {"p_deformed": proba, "label": labels}, ("P(deformed)", "label"))

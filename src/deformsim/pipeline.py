@@ -19,6 +19,7 @@ from pathlib import Path
 from deformsim.atomic import write_json
 from deformsim.config import Config
 from deformsim.errors import UserError
+from deformsim.extras import require
 from deformsim.generate.identity import data_identity
 from deformsim.generate.stage import prepare
 from deformsim.identity import digest
@@ -75,6 +76,7 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     from deformsim.generate.stage import generate
 
     out = check_folder_target(out, "--out")
+    require("render", "train", what="deformsim run")
     found = kinds_in(out)
     if found:
         raise UserError(f"--out {out} holds a deformsim {' and '.join(sorted(found))}, not a run: choose a new or "

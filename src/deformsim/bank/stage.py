@@ -15,6 +15,7 @@ import numpy as np
 from deformsim.atomic import write_json
 from deformsim.bank.store import bank_dir, bank_key, is_complete
 from deformsim.errors import UserError
+from deformsim.extras import require
 from deformsim.generate.worker_client import worker_env
 from deformsim.log import get_logger, progress_bar
 from deformsim.spec.model import Spec
@@ -36,6 +37,7 @@ def bake(spec: Spec, spec_path: str | Path | None, mesh: str | Path | None, prog
     if is_complete(final, spec) and not force:
         log.info("bank: reusing %s", final)
         return final
+    require("render", what="baking the simulated bank")
     names = entry_names(spec.simulation)
     final.parent.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=final.parent))

@@ -70,6 +70,14 @@ def fail_cleanly(fn):
         except KeyboardInterrupt:
             err_console.print(f"interrupted: {RESUME}")
             sys.exit(130)
+        except ModuleNotFoundError as exc:  # a module of an extra that is not installed: the extra in one line
+            from deformsim.extras import as_missing_extra
+
+            missing = as_missing_extra(exc)
+            if missing is None:
+                raise
+            error(_escape(str(missing)))
+            raise typer.Exit(missing.exit_code) from None
         except OSError as exc:
             from deformsim.outputs import os_error_line
 

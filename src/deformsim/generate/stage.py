@@ -25,6 +25,7 @@ from deformsim.dataset.images import open_rgb
 from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import consolidate, read_record
 from deformsim.errors import ResourceError, UserError
+from deformsim.extras import require
 from deformsim.generate.backend import disk_full, remove_partial_files
 from deformsim.generate.identity import appearance_photos, input_digests, texture_photos
 from deformsim.generate.local import run_local
@@ -62,6 +63,7 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
     ``spec``: ``cfg``'s spec when the caller has loaded it already.
     """
     out = check_folder_target(out, "--out")
+    require("render", *(("ray",) if cfg.generate.backend == "ray" else ()), what="rendering")
     spec = spec or load_spec(cfg.object.spec)
     allowed_families(cfg, spec)
     if cfg.deform.sources.uses_bank and spec.simulation is None:
