@@ -68,7 +68,7 @@ def check_probe(mesh: Path, probed: dict) -> list[float]:
 
 def check_plan(cfg: Config, yes: bool) -> None:
     """A plan of more than :data:`~deformsim.config.CONFIRM_IMAGES` images needs ``yes``: else one line with its
-    estimated render time and disk (from docs/benchmarks.md's 2-core machine)."""
+    estimated render time and disk (from docs/experiments/timings.md's 2-core machine)."""
     n = cfg.generate.n
     if n <= CONFIRM_IMAGES or yes:
         return
