@@ -19,7 +19,7 @@ from deformsim.dataset.images import REAL_RULE as REAL_HELP
 from deformsim.errors import UserError
 
 __all__ = ["REAL_HELP", "SHORTCUTS", "ConfigArgs", "console", "err_console", "fail_cleanly", "from_config", "note",
-           "parse_sets", "plain_engine", "set_option", "shortcut", "shortcut_flags"]
+           "parse_sets", "plain_engine", "set_option", "shortcut", "shortcut_flags", "yes_option"]
 
 console = Console()
 err_console = Console(stderr=True)
@@ -189,6 +189,13 @@ def set_option():
     """The ``--set KEY=VALUE`` option of a command that takes a config (read by :func:`parse_sets`)."""
     return typer.Option([], "--set", metavar="KEY=VALUE",
                         help="Set any config key, e.g. train.epochs=5; repeatable. Every key: deformsim config show.")
+
+
+def yes_option():
+    """The ``--yes`` option of a command that renders: it starts a plan larger than the confirmation limit."""
+    return typer.Option(
+        False, "--yes", help="start a plan of more than 100000 images (without it: the estimated time and disk, and a stop)"
+    )
 
 
 def parse_sets(items: Sequence[str]) -> dict:

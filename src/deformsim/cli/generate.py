@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import ConfigArgs, console, fail_cleanly, set_option, shortcut, shortcut_flags
+from deformsim.cli.common import ConfigArgs, console, fail_cleanly, set_option, shortcut, shortcut_flags, yes_option
 
 
 def generate(
@@ -27,9 +27,7 @@ def generate(
     overwrite: bool = typer.Option(
         False, "--overwrite", help="replace a dataset in --out made with other settings, inputs or more images"
     ),
-    yes: bool = typer.Option(
-        False, "--yes", help="start a plan of more than 100000 images (without it: the estimated time and disk, and a stop)"
-    ),
+    yes: bool = yes_option(),
     set_: list[str] = set_option(),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while rendering."),
 ) -> None:

@@ -17,6 +17,7 @@ from deformsim.cli.common import (
     set_option,
     shortcut,
     shortcut_flags,
+    yes_option,
 )
 from deformsim.cli.summary import report_summary
 
@@ -39,9 +40,7 @@ def register(app: typer.Typer) -> None:
         overwrite: bool = typer.Option(
             False, "--overwrite", help="render the dataset anew when it holds more images than --n (else refused)"
         ),
-        yes: bool = typer.Option(
-            False, "--yes", help="start a plan of more than 100000 images (without it: the estimated time and disk, and a stop)"
-        ),
+        yes: bool = yes_option(),
         set_: list[str] = set_option(),
         progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
     ) -> None:
