@@ -326,7 +326,7 @@ class SurfaceConfig(_Model):
         ["wood", "paper", "concrete", "metal", "cloth", "conveyor"], min_length=1,
         description="surface kinds drawn per sample (procedural materials; photo: a picture from photos)",
     )
-    photos: Annotated[Path | None, identity.by_content("surface", "surface photo folder")] = Field(
+    photos: Annotated[Path | None, identity.by_content("surface", "surface photo folder", whole=True)] = Field(
         None, description="folder of texture photos (table tops, floors) for kind photo")
     scale: Annotated[Range, Within(hi=100, above=0)] = Field(
         (0.6, 1.6), description="texture scale: 1 = wood grain, weave, ridges at a real part's size"
@@ -358,7 +358,7 @@ class AppearanceConfig(_Model):
     designer: bool = Field(
         True, description="built-in can: the label designer; false: the plain label (flat fields, a word, a barcode)"
     )
-    photos: Annotated[Path | None, identity.by_content("artwork", "artwork photo folder")] = Field(
+    photos: Annotated[Path | None, identity.by_content("artwork", "artwork photo folder", whole=True)] = Field(
         None, description="folder of images used as artwork: the can's label, or a mesh's texture (box-projected), "
         "in a share photo_share of samples"
     )
@@ -691,6 +691,11 @@ class Config(_Model):
         """Every file and folder the renders are made from (the fields read by content), by what it is:
         ``{"mesh": ..., "spec": ..., "HDRI folder": ..., "artwork photo folder": ...}``; None where unset."""
         return {rule.what: path for rule, path in identity.content_inputs(self)}
+
+    def photo_folders(self) -> dict[str, Path | None]:
+        """The input folders read with everything under them (photos found recursively), by what each is: an
+        output inside one would be read as input next time."""
+        return {rule.what: path for rule, path in identity.content_inputs(self) if rule.whole}
 
 
 def preset_path(name: str) -> Path:

@@ -71,7 +71,8 @@ class Rule:
     ``when``: it counts only while the sibling field ``when[0]`` holds the value ``when[1]``. ``content``: a path
     whose files the output's inputs name by their bytes; it counts as set or not, never by the path itself, so the
     same files reached by another path (relative or absolute, a moved folder) make the same output. Such a rule
-    (:func:`by_content`) names the input: ``key``, its digest's name in what an output records; ``what``, in words.
+    (:func:`by_content`) names the input: ``key``, its digest's name in what an output records; ``what``, in words;
+    ``whole``: a folder read with everything under it.
     """
 
     never: bool = False
@@ -80,6 +81,7 @@ class Rule:
     content: bool = False
     key: str = ""
     what: str = ""
+    whole: bool = False
 
     def counts(self, model: BaseModel, value: object, default: object) -> bool:
         if self.never or (self.when_set and value == default):
@@ -92,9 +94,9 @@ NEVER = Rule(never=True)
 WHEN_SET = Rule(when_set=True)
 
 
-def by_content(key: str, what: str) -> Rule:
+def by_content(key: str, what: str, whole: bool = False) -> Rule:
     """The rule of a path read by content: ``by_content("hdri", "HDRI folder")`` (see :class:`Rule`)."""
-    return Rule(content=True, key=key, what=what)
+    return Rule(content=True, key=key, what=what, whole=whole)
 
 
 def when(**sibling: object) -> Rule:

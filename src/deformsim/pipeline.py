@@ -87,7 +87,7 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     inputs = _inputs(cfg, real)
     for replaced, what in ((data, "the run's dataset folder"), (out / "report", "the run's report folder")):
         check_apart(replaced, what, inputs)
-    check_outside(out, "--out", {k: v for k, v in inputs.items() if k in ("real photos", "backgrounds folder")})
+    check_outside(out, "--out", {"real photos": real, "backgrounds folder": cfg.composite.backgrounds, **cfg.photo_folders()})
     prepared = prepare(cfg, data, overwrite, spec)  # every input check before any work
     real_id = real_digest(real)
     backgrounds = cfg.composite.backgrounds

@@ -34,7 +34,7 @@ from deformsim.generate.refusals import check_part, check_probe, existing_datase
 from deformsim.generate.visibility import invisible_keys
 from deformsim.hdri import drawn_hdris
 from deformsim.log import get_logger
-from deformsim.outputs import check_apart, check_folder_target, remove_folder, sweep
+from deformsim.outputs import check_apart, check_folder_target, check_outside, remove_folder, sweep
 from deformsim.sampling import allowed_families, sample_params
 from deformsim.spec.model import Spec, load_spec, units_hint
 from deformsim.version import __version__
@@ -63,6 +63,7 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
     ``spec``: ``cfg``'s spec when the caller has loaded it already.
     """
     out = check_folder_target(out, "--out")
+    check_outside(out, "--out", cfg.photo_folders())  # its renders would be read as photos next time
     require("render", *(("ray",) if cfg.generate.backend == "ray" else ()), what="rendering")
     spec = spec or load_spec(cfg.object.spec)
     allowed_families(cfg, spec)
