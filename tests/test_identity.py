@@ -13,9 +13,10 @@ from pathlib import Path
 import pytest
 
 from deformsim.config import Config, load_config
+from deformsim.errors import UserError
 from deformsim.generate import stage as gen_stage
 from deformsim.generate.identity import data_name, data_settings
-from deformsim.identity import BY_CONTENT, NEVER, WHEN_SET, digest, file_digest, files_digest, folder_digest, rule_of, when
+from deformsim.identity import NEVER, WHEN_SET, digest, file_digest, files_digest, folder_digest, rule_of, when
 from deformsim.pipeline import run
 from tests.generate.fakes import use_fakes
 from tests.util import CARTON_SPEC
@@ -121,7 +122,8 @@ def test_the_same_files_by_other_paths_name_the_same_dataset(part, tmp_path, mon
     shutil.copytree(tmp_path, moved / "project", ignore=shutil.ignore_patterns("moved"))
     assert data_name(load_config("quick", {"object.mesh": moved / "project" / mesh.name,
                                            "object.spec": moved / "project" / spec.name})) == first
-    assert rule_of(type(Config().object), "mesh") == rule_of(type(Config().lighting), "hdri_dir") == BY_CONTENT
+    assert list(Config(render={"surface": {}, "appearance": {}}).input_paths()) == [
+        "mesh", "spec", "HDRI folder", "surface photo folder", "artwork photo folder"]  # every input read by content
 
 
 @pytest.fixture
@@ -199,3 +201,21 @@ def test_run_redoes_composite_when_a_background_photo_changes(tmp_path, fake_sta
     copy_keeping_times(photos / "b.jpg", photos / "a.jpg")
     again = run(cfg, tmp_path / "run", progress=False)
     assert again.skipped == ["generate"] and "composite:backgrounds" in again.seconds
+
+
+def test_run_redoes_generate_when_an_artwork_photo_changes_and_never_replaces_the_folder(tmp_path, fake_stages):
+    from PIL import Image
+
+    photos = tmp_path / "art"
+    photos.mkdir()
+    for name, colour in (("a.png", (200, 30, 30)), ("b.png", (30, 30, 200))):
+        Image.new("RGB", (8, 8), colour).save(photos / name)
+    cfg = load_config("quick", {"render.appearance": {"photos": photos}, "generate.n": 8})
+    first = run(cfg, tmp_path / "run", progress=False)
+    shutil.copyfile(photos / "b.png", photos / "a.png")
+    again = run(cfg, tmp_path / "run", progress=False)
+    assert again.skipped == [] and again.data != first.data  # a new dataset from the new artwork
+    inside = load_config("quick", {"render.appearance": {"photos": tmp_path / "run" / "report" / "art"}})
+    shutil.copytree(photos, tmp_path / "run" / "report" / "art")
+    with pytest.raises(UserError, match="the run's report folder .*report contains the artwork photo folder"):
+        run(inside, tmp_path / "run", progress=False)

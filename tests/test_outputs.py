@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -13,6 +11,8 @@ import pytest
 from deformsim import outputs
 from deformsim.errors import UserError
 from deformsim.outputs import check_file_target, check_folder_target, claim, read_inputs, replacing
+from deformsim.parallel import owner_tag
+from tests.util import dead_tag
 
 
 def _files(folder: Path) -> dict[str, bytes]:
@@ -127,29 +127,35 @@ def test_an_output_is_never_an_input(tmp_path):
         outputs.check_outside(data / "report", "--out", {"real photos": data})
 
 
-def _dead_pid() -> int:
-    proc = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
-    return int(proc.stdout)
-
-
 def test_what_a_killed_run_left_beside_an_output_is_removed(tmp_path):
-    dead = _dead_pid()
+    dead = dead_tag()
     out = tmp_path / "model"
     with replacing(out, {"settings": 1}, "model") as tmp:
         (tmp / "model.pt").write_text("one")
     left = [tmp_path / f".model.{what}-{dead}-1a2b3c4d" for what in ("staging", "removing")]
-    live = tmp_path / f".model.staging-{os.getpid()}-5e6f7a8b"  # a run still going: kept
+    live = tmp_path / f".model.staging-{owner_tag()}-5e6f7a8b"  # a run still going: kept
+    host, pid, start = dead.rsplit("-", 2)
+    elsewhere = tmp_path / f".model.staging-{host}x-{pid}-{start}-0a1b2c3d"  # another host's run on a shared disk: kept
     other = tmp_path / f".model2.staging-{dead}-1a2b3c4d"  # another output's: not this one's to remove
-    for folder in (*left, live, other):
+    for folder in (*left, live, elsewhere, other):
         folder.mkdir()
         (folder / "part.bin").write_text("half")
     with replacing(out, {"settings": 2}, "model") as tmp:
         (tmp / "model.pt").write_text("two")
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["model", live.name, other.name])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["model", live.name, elsewhere.name, other.name])
     # killed between moving the old output aside and moving the new one in: the old one comes back
     out.rename(tmp_path / f".model.old-{dead}-9c8d7e6f")
     outputs.sweep(out)
     assert (out / "model.pt").read_text() == "two" and read_inputs(out)["settings"] == 2
+
+
+def test_a_replacement_can_keep_what_another_process_made_meanwhile(tmp_path):
+    out = tmp_path / "bank"
+    with replacing(out) as tmp:
+        (tmp / "bank.json").write_text("first")
+    with replacing(out, keep=lambda: (out / "bank.json").is_file()) as tmp:
+        (tmp / "bank.json").write_text("second")
+    assert (out / "bank.json").read_text() == "first" and [p.name for p in tmp_path.iterdir()] == ["bank"]
 
 
 def test_the_cache_is_an_absolute_folder(tmp_path, monkeypatch):

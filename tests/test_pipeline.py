@@ -129,3 +129,15 @@ def test_run_never_writes_into_another_output_nor_replaces_an_input(tmp_path, no
     with pytest.raises(UserError, match="--out .*lies inside the backgrounds folder"):
         run(load_config("quick", {**E2E, "composite.backgrounds": str(photos)}), photos / "run", progress=False)
     assert sorted(p.name for p in data.iterdir()) == ["inputs.json", "samples"] and not any(photos.iterdir())
+
+
+def test_a_run_is_never_written_inside_a_folder_of_photos_it_reads(tmp_path, no_work):
+    from PIL import Image
+
+    textures = tmp_path / "textures"
+    textures.mkdir()
+    Image.new("RGB", (8, 8), (90, 60, 30)).save(textures / "wood.png")
+    cfg = load_config("quick", {**E2E, "render.surface": {"kinds": ["photo"], "photos": str(textures)}})
+    with pytest.raises(UserError, match="--out .*textures/run is or lies inside the surface photo folder"):
+        run(cfg, textures / "run", progress=False)
+    assert [p.name for p in textures.iterdir()] == ["wood.png"]

@@ -23,6 +23,13 @@ def cli(*args: str, **kw) -> subprocess.CompletedProcess:
                           text=True, timeout=900, **kw)
 
 
+def dead_tag() -> str:
+    """The owner tag (:func:`deformsim.parallel.owner_tag`) of a process that has ended."""
+    code = "from deformsim.parallel import owner_tag; print(owner_tag())"
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env).stdout.strip()
+
+
 def child_pids(pid: int) -> list[int]:
     """The processes whose parent is ``pid`` (Linux /proc)."""
     out = []

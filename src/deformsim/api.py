@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from deformsim.config import Config, apply_overrides, load_config, validate_config
+from deformsim.errors import UserError
 from deformsim.log import get_logger
 
 if TYPE_CHECKING:
@@ -162,7 +163,8 @@ class Engine:
     def predict(self, model: str | Path, images: Sequence[str | Path], csv: str | Path | None = None,
                 adapt: AdaptRecipe | None = None) -> Prediction:
         """P(deformed) and the label of each image (files, or folders searched recursively), or what a model of
-        another ``train.target`` predicts; also written to ``csv`` (columns path, then the prediction's).
+        another ``train.target`` predicts; also written to ``csv`` (columns path, then the prediction's). ``model``:
+        model.pt, its folder, or an exported ``.onnx`` file (read with onnxruntime alone, no torch).
 
         ``adapt``: first adapt the model, in memory, to the images themselves (no label read; at least 8 distinct
         photos, :mod:`deformsim.learn.adapt_stage`); the prediction's ``prior`` is their estimated share of
@@ -171,13 +173,21 @@ class Engine:
 
         from deformsim.atomic import atomic_path
         from deformsim.dataset.real import expand_images
-        from deformsim.learn.predict import load
         from deformsim.outputs import check_file_target
 
         paths = expand_images(list(images))
         if csv is not None:
             check_file_target(csv, "--csv", [model, *paths])
-        predictor = load(model)
+        if Path(model).suffix.lower() == ".onnx":
+            from deformsim.learn.onnx_predict import OnnxPredictor
+
+            if adapt is not None:
+                raise UserError("predict --adapt needs the trained model.pt, not an exported .onnx")
+            predictor = OnnxPredictor(model)
+        else:
+            from deformsim.learn.predict import load
+
+            predictor = load(model)
         prior = None
         if adapt is not None:
             from deformsim.learn.adapt_stage import check_adaptable, distinct_photos, fit_on

@@ -94,9 +94,9 @@ class ShapesConfig(_Model):
 class ObjectConfig(_Model):
     """What is rendered: the built-in can or a user mesh, and its deformation spec."""
 
-    mesh: Annotated[Path | None, identity.BY_CONTENT] = Field(
+    mesh: Annotated[Path | None, identity.by_content("mesh", "mesh")] = Field(
         None, description="CAD mesh (stl/obj/ply/glb/gltf/fbx); null = built-in can")
-    spec: Annotated[Path | None, identity.BY_CONTENT] = Field(
+    spec: Annotated[Path | None, identity.by_content("spec", "spec")] = Field(
         None, description="deformation spec YAML; null = built-in can spec")
     shapes: Annotated[ShapesConfig | None, identity.WHEN_SET] = Field(
         None, description="the part's shape drawn per sample (can sizes, per-axis scale, taper, bulge); null = "
@@ -243,7 +243,7 @@ class AreaLightsConfig(_Model):
 class LightingConfig(_Model):
     """HDRI world lighting: a random EXR at a random rotation; optional area lights on top."""
 
-    hdri_dir: Annotated[Path | None, identity.BY_CONTENT] = Field(
+    hdri_dir: Annotated[Path | None, identity.by_content("hdri", "HDRI folder")] = Field(
         None, description="folder of .exr/.hdr files; null = Blender's studiolights")
     hdris: Annotated[list[str] | None, identity.WHEN_SET] = Field(
         None, min_length=1, description="draw only these HDRIs (file names without extension, e.g. [interior, "
@@ -326,7 +326,7 @@ class SurfaceConfig(_Model):
         ["wood", "paper", "concrete", "metal", "cloth", "conveyor"], min_length=1,
         description="surface kinds drawn per sample (procedural materials; photo: a picture from photos)",
     )
-    photos: Annotated[Path | None, identity.BY_CONTENT] = Field(
+    photos: Annotated[Path | None, identity.by_content("surface", "surface photo folder", whole=True)] = Field(
         None, description="folder of texture photos (table tops, floors) for kind photo")
     scale: Annotated[Range, Within(hi=100, above=0)] = Field(
         (0.6, 1.6), description="texture scale: 1 = wood grain, weave, ridges at a real part's size"
@@ -358,7 +358,7 @@ class AppearanceConfig(_Model):
     designer: bool = Field(
         True, description="built-in can: the label designer; false: the plain label (flat fields, a word, a barcode)"
     )
-    photos: Annotated[Path | None, identity.BY_CONTENT] = Field(
+    photos: Annotated[Path | None, identity.by_content("artwork", "artwork photo folder", whole=True)] = Field(
         None, description="folder of images used as artwork: the can's label, or a mesh's texture (box-projected), "
         "in a share photo_share of samples"
     )
@@ -686,6 +686,16 @@ class Config(_Model):
             raise ValueError(f"train.min_region={self.train.min_region:g} needs render.dense: true (each image's "
                              "deformed region)")
         return self
+
+    def input_paths(self) -> dict[str, Path | None]:
+        """Every file and folder the renders are made from (the fields read by content), by what it is:
+        ``{"mesh": ..., "spec": ..., "HDRI folder": ..., "artwork photo folder": ...}``; None where unset."""
+        return {rule.what: path for rule, path in identity.content_inputs(self)}
+
+    def photo_folders(self) -> dict[str, Path | None]:
+        """The input folders read with everything under them (photos found recursively), by what each is: an
+        output inside one would be read as input next time."""
+        return {rule.what: path for rule, path in identity.content_inputs(self) if rule.whole}
 
 
 def preset_path(name: str) -> Path:

@@ -70,13 +70,18 @@ class Rule:
     only away from its default, so an option whose default changes nothing keeps every identity as it is.
     ``when``: it counts only while the sibling field ``when[0]`` holds the value ``when[1]``. ``content``: a path
     whose files the output's inputs name by their bytes; it counts as set or not, never by the path itself, so the
-    same files reached by another path (relative or absolute, a moved folder) make the same output.
+    same files reached by another path (relative or absolute, a moved folder) make the same output. Such a rule
+    (:func:`by_content`) names the input: ``key``, its digest's name in what an output records; ``what``, in words;
+    ``whole``: a folder read with everything under it.
     """
 
     never: bool = False
     when_set: bool = False
     when: tuple[str, object] | None = None
     content: bool = False
+    key: str = ""
+    what: str = ""
+    whole: bool = False
 
     def counts(self, model: BaseModel, value: object, default: object) -> bool:
         if self.never or (self.when_set and value == default):
@@ -87,7 +92,11 @@ class Rule:
 ALWAYS = Rule()
 NEVER = Rule(never=True)
 WHEN_SET = Rule(when_set=True)
-BY_CONTENT = Rule(content=True)
+
+
+def by_content(key: str, what: str, whole: bool = False) -> Rule:
+    """The rule of a path read by content: ``by_content("hdri", "HDRI folder")`` (see :class:`Rule`)."""
+    return Rule(content=True, key=key, what=what, whole=whole)
 
 
 def when(**sibling: object) -> Rule:
@@ -99,6 +108,19 @@ def when(**sibling: object) -> Rule:
 def rule_of(model: type[BaseModel], name: str) -> Rule:
     """The :class:`Rule` of ``model``'s field ``name``."""
     return next((m for m in model.model_fields[name].metadata if isinstance(m, Rule)), ALWAYS)
+
+
+def content_inputs(model: BaseModel) -> list[tuple[Rule, object]]:
+    """The rule and value of every field read by content in ``model`` and the sections under it that are set, in
+    field order."""
+    out = []
+    for name in type(model).model_fields:
+        value, rule = getattr(model, name), rule_of(type(model), name)
+        if rule.content:
+            out.append((rule, value))
+        elif isinstance(value, BaseModel):
+            out.extend(content_inputs(value))
+    return out
 
 
 def settings(model: BaseModel) -> dict:

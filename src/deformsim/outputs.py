@@ -21,10 +21,11 @@ import tempfile
 import uuid
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterable, Iterator
+from typing import Callable, Iterable, Iterator
 
 from deformsim.atomic import write_json
 from deformsim.errors import ResourceError, UserError
+from deformsim.parallel import owner_gone, owner_tag
 from deformsim.schema import shown
 
 INPUTS = "inputs.json"
@@ -34,8 +35,9 @@ KINDS = ("dataset", "model", "report", "export")
 SIGNS = {"dataset": ("config.yaml", "samples"), "model": ("model.pt", "train.json"),
          "report": ("report.html", "metrics.json")}
 DISK_FULL = (errno.ENOSPC, errno.EDQUOT)
-# what `replacing` and `remove_folder` leave beside a target when killed: `.NAME.staging-PID-...` and the like
-_LEFTOVER = re.compile(r"(staging|old|removing)-(\d+)-[^.]+")
+# what `replacing` and `remove_folder` leave beside a target when killed: `.NAME.staging-HOST-PID-START-XXXXXXXX`
+# and the like, named by the process that works in it (:func:`deformsim.parallel.owner_tag`)
+_LEFTOVER = re.compile(r"(staging|old|removing)-(.+)-[0-9a-f]{8}")
 
 
 def _nearest_existing(path: Path) -> Path:
@@ -210,21 +212,10 @@ def claim(out: str | Path, kind: str, identity: dict, overwrite: bool, flag: str
     return True
 
 
-def _alive(pid: int) -> bool:
-    """Whether process ``pid`` may still run (another user's, or a number no process has, counts as alive)."""
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (PermissionError, OverflowError, ValueError):
-        return True
-    return True
-
-
 def sweep(out: str | Path) -> None:
     """Remove what a killed :func:`replacing` or :func:`remove_folder` of ``out`` left beside it (its process is
-    gone): staging and half-removed folders go; the old folder of an interrupted swap is put back when ``out``
-    is missing."""
+    gone: :func:`~deformsim.parallel.owner_gone`, so never another host's): staging and half-removed folders go;
+    the old folder of an interrupted swap is put back when ``out`` is missing."""
     out = Path(out)
     prefix = f".{out.name}."
     try:
@@ -233,7 +224,7 @@ def sweep(out: str | Path) -> None:
         return
     for path in sorted(names):
         m = _LEFTOVER.fullmatch(path.name[len(prefix):])
-        if m is None or not path.is_dir() or _alive(int(m.group(2))):
+        if m is None or not path.is_dir() or not owner_gone(m.group(2)):
             continue
         if m.group(1) == "old" and not out.exists():
             os.rename(path, out)
@@ -242,7 +233,7 @@ def sweep(out: str | Path) -> None:
 
 
 def _beside(out: Path, what: str) -> Path:
-    return out.parent / f".{out.name}.{what}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    return out.parent / f".{out.name}.{what}-{owner_tag()}-{uuid.uuid4().hex[:8]}"
 
 
 def remove_folder(folder: Path) -> None:
@@ -257,11 +248,13 @@ def remove_folder(folder: Path) -> None:
 
 
 @contextmanager
-def replacing(out: str | Path, identity: dict | None = None, kind: str | None = None) -> Iterator[Path]:
+def replacing(out: str | Path, identity: dict | None = None, kind: str | None = None,
+              keep: Callable[[], bool] | None = None) -> Iterator[Path]:
     """Yield an empty staging folder beside ``out``; when the block succeeds it takes ``out``'s place whole.
 
     ``identity`` (with ``kind``) is recorded in ``inputs.json``. On failure (or Ctrl-C) the staging folder is
     removed and ``out`` is left as it was; what a killed run left beside ``out`` is removed first (:func:`sweep`).
+    ``keep``: asked when the block succeeds; True keeps ``out`` as it is (another process made it meanwhile).
     """
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -270,6 +263,8 @@ def replacing(out: str | Path, identity: dict | None = None, kind: str | None = 
     staging.mkdir()
     try:
         yield staging
+        if keep is not None and keep():
+            return
         if identity is not None:
             write_json(staging / INPUTS, {"kind": kind, **identity})
         old = None

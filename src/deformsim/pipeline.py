@@ -19,6 +19,7 @@ from pathlib import Path
 from deformsim.atomic import write_json
 from deformsim.config import Config
 from deformsim.errors import UserError
+from deformsim.extras import require
 from deformsim.generate.identity import data_identity
 from deformsim.generate.stage import prepare
 from deformsim.identity import digest
@@ -61,10 +62,7 @@ class Stages:
 
 def _inputs(cfg: Config, real: Path | None) -> dict[str, Path | None]:
     """Every file and folder a run reads, by what it is."""
-    surface = cfg.render.surface
-    return {"real photos": real, "backgrounds folder": cfg.composite.backgrounds, "mesh": cfg.object.mesh,
-            "spec": cfg.object.spec, "HDRI folder": cfg.lighting.hdri_dir,
-            "surface photo folder": surface.photos if surface is not None else None}
+    return {"real photos": real, "backgrounds folder": cfg.composite.backgrounds, **cfg.input_paths()}
 
 
 def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True, overwrite: bool = False) -> RunResult:
@@ -78,6 +76,7 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     from deformsim.generate.stage import generate
 
     out = check_folder_target(out, "--out")
+    require("render", "train", what="deformsim run")
     found = kinds_in(out)
     if found:
         raise UserError(f"--out {out} holds a deformsim {' and '.join(sorted(found))}, not a run: choose a new or "
@@ -88,7 +87,7 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     inputs = _inputs(cfg, real)
     for replaced, what in ((data, "the run's dataset folder"), (out / "report", "the run's report folder")):
         check_apart(replaced, what, inputs)
-    check_outside(out, "--out", {k: v for k, v in inputs.items() if k in ("real photos", "backgrounds folder")})
+    check_outside(out, "--out", {"real photos": real, "backgrounds folder": cfg.composite.backgrounds, **cfg.photo_folders()})
     prepared = prepare(cfg, data, overwrite, spec)  # every input check before any work
     real_id = real_digest(real)
     backgrounds = cfg.composite.backgrounds

@@ -53,3 +53,40 @@ def test_a_rebaked_bank_makes_a_new_dataset_identity(monkeypatch):
     monkeypatch.setattr(store, "BAKE_REVISION", store.BAKE_REVISION + 1)
     assert data_name(bank) != before[0]
     assert data_name(lattice) == before[1]  # a lattice-only dataset does not depend on the bank
+
+
+def test_a_bake_replaces_the_bank_whole_and_keeps_one_baked_meanwhile(tmp_path, monkeypatch):
+    """The simulation is faked (no Blender): what a bake keeps, replaces and leaves behind."""
+    import numpy as np
+
+    from deformsim.bank import stage
+    from deformsim.bank.store import is_complete, load_bank
+    from deformsim.spec.simulation import entry_names
+
+    monkeypatch.setenv("DEFORMSIM_CACHE", str(tmp_path))
+    spec = load_spec()
+    names, value = entry_names(spec.simulation), [1.0]
+
+    def simulate(spec_path, mesh, work, total, progress):
+        entries = [{"name": n, "stats": {"seconds": 1.0}} for n in names]
+        return entries, [np.full((4, 3), value[0], np.float32) for _ in names]
+
+    monkeypatch.setattr(stage, "_simulate", simulate)
+    final = stage.bake(spec, None, None, progress=False)
+    assert is_complete(final, spec) and load_bank(final).positions.max() == 1.0
+    value[0] = 2.0
+    assert stage.bake(spec, None, None, progress=False) == final and load_bank(final).positions.max() == 1.0  # cached
+    stage.bake(spec, None, None, progress=False, force=True)
+    assert load_bank(final).positions.max() == 2.0  # replaced whole
+    value[0] = 3.0
+    asked = []  # the first check finds no bank; by the swap another process has baked it: kept
+
+    def complete(path, spec):
+        asked.append(path)
+        return len(asked) > 1 and is_complete(path, spec)
+
+    monkeypatch.setattr(stage, "is_complete", complete)
+    stage.bake(spec, None, None, progress=False)
+    assert len(asked) == 2
+    assert load_bank(final).positions.max() == 2.0
+    assert sorted(p.name for p in final.parent.iterdir()) == [final.name]  # no staging or old folder left

@@ -20,13 +20,12 @@ from typer.testing import CliRunner
 
 from deformsim.cli.composite import register
 from deformsim.composite.backgrounds import BackgroundWarning
-from deformsim.composite.stage import STAGING, composite, sweep_staging
+from deformsim.composite.stage import composite
 from deformsim.config import CompositeConfig
 from deformsim.dataset.variants import list_variants, variant_table
 from deformsim.errors import UserError
-from deformsim.parallel import owner_tag
 from tests.fake_dense import make_dense_dataset
-from tests.util import ROOT, child_pids, cli
+from tests.util import ROOT, child_pids, cli, dead_tag
 
 
 def _photos(tmp_path, backgrounds_dir, n=3):
@@ -227,28 +226,23 @@ def test_kill_9_ends_the_workers_and_the_next_run_removes_the_staging_folder(tmp
         for pid in workers:  # a survivor of an old build: ours to end
             if _alive(pid):
                 os.kill(pid, signal.SIGKILL)
-    assert list((data / "variants").glob(".staging*"))  # what the killed run left
+    left = sorted(p.name for p in (data / "variants").iterdir())
+    assert [n for n in left if n.startswith(".procedural.staging-")], left  # what the killed run left
     composite(data, CompositeConfig(workers=1), None, seed=0, progress=False)
     assert sorted(p.name for p in (data / "variants").iterdir()) == ["procedural"]
     assert len(variant_table(data, "procedural")) == 120
 
 
-def test_a_variant_moved_aside_by_a_killed_swap_is_put_back(tmp_path):
-    dead = subprocess.run([sys.executable, "-c", "from deformsim.parallel import owner_tag; print(owner_tag())"],
-                          env={**os.environ, "PYTHONPATH": str(ROOT / "src")}, capture_output=True, text=True,
-                          check=True).stdout.strip()
-    variants = tmp_path / "variants"
-    killed = variants / f"{STAGING}{dead}-abc123"  # killed between moving the old variant aside and the new one in
-    (killed / ".old").mkdir(parents=True)
-    (killed / ".old" / "manifest.parquet").write_text("the old variant")
-    (killed / "comp").mkdir()
-    done = variants / f"{STAGING}{dead}-def456" / ".old"  # killed after the swap: only the old copy is left
-    done.mkdir(parents=True)
-    live = variants / f"{STAGING}{owner_tag()}-ghi789" / "other"  # a run still going: kept
-    live.mkdir(parents=True)
-    sweep_staging(variants)
-    assert sorted(p.name for p in variants.iterdir()) == sorted(["comp", live.parent.name])
-    assert (variants / "comp" / "manifest.parquet").read_text() == "the old variant"
+def test_a_staging_folder_is_never_taken_for_a_variant(dataset):
+    """What a run killed just before its swap left beside the variant (its manifest written) is no variant, and
+    the next run removes it."""
+    composite(dataset, CompositeConfig(workers=1), "comp", seed=0, progress=False)
+    variants = dataset / "variants"
+    left = variants / f".comp.staging-{dead_tag()}-1a2b3c4d"  # the owner tag of a process that has ended
+    shutil.copytree(variants / "comp", left)
+    assert list_variants(dataset) == ["black", "green", "comp"]
+    composite(dataset, CompositeConfig(workers=1), "comp", seed=1, progress=False)
+    assert sorted(p.name for p in variants.iterdir()) == ["comp"]
 
 
 @pytest.mark.parametrize("balance", [False, True])

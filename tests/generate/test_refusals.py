@@ -264,3 +264,17 @@ def test_a_spec_that_cannot_rig_a_solid_mesh_is_refused_after_the_shape_checks()
     with pytest.raises(UserError, match="is flat"):
         check_probe(Path("m.stl"), {"size": [0.1, 0.1, 0.0], "vertices": 8, "rig": rig})
     assert check_probe(Path("m.stl"), {"size": [0.1, 0.1, 0.2], "vertices": 8}) == [0.1, 0.1, 0.2]
+
+
+def test_a_dataset_is_never_written_inside_a_folder_of_photos_it_reads(monkeypatch, tmp_path):
+    """Its renders would be drawn as artwork (or textures) by the next run: refused before any work."""
+    from PIL import Image
+
+    use_fakes(monkeypatch)
+    art = tmp_path / "art"
+    art.mkdir()
+    Image.new("RGB", (8, 8), (200, 30, 30)).save(art / "a.png")
+    cfg = cfg_for(**{"render.appearance": {"photos": art}})
+    with pytest.raises(UserError, match="--out .*art/data is or lies inside the artwork photo folder"):
+        generate(cfg, art / "data", progress=False)
+    assert sorted(p.name for p in art.iterdir()) == ["a.png"]

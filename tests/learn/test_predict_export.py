@@ -123,3 +123,86 @@ def test_max_pooled_and_grey_models_train_reload_and_export(blobs, tmp_path, opt
                                    providers=["CPUExecutionProvider"])
     got = session.run(["p_deformed"], {"image": torch.stack([load_image(p, 64) for p in paths]).numpy()})[0]
     np.testing.assert_allclose(got, expected, atol=1e-5)
+
+
+def _non_square(paths: list[str], root) -> list[str]:
+    """The images widened to 96 x 64 on a grey margin (where a test-time crop changes what the model sees)."""
+    from PIL import Image
+
+    root.mkdir()
+    out = []
+    for i, p in enumerate(paths):
+        wide = Image.new("RGB", (96, 64), (120, 120, 120))
+        wide.paste(Image.open(p).convert("RGB"), (8 + 3 * i % 24, 0))
+        wide.save(root / f"{i}.png")
+        out.append(str(root / f"{i}.png"))
+    return out
+
+
+@pytest.mark.parametrize("option", [{}, {"crop": "saliency", "tta_flip": True}, {"crop": "pad"}])
+def test_predict_takes_the_onnx_export_with_the_models_probabilities(model_dir, blobs, tmp_path, option):
+    """What an inspection station deploys: the .onnx file, read as the torch model reads its images."""
+    from deformsim.api import Engine
+
+    model = model_dir
+    if option:
+        model = tmp_path / "m"
+        fit(blobs.groupby("y").head(12), TrainConfig(weights="offline", image_size=64, epochs=1, lr=1e-4, **option), model,
+            progress=False)
+    paths = _non_square(list(blobs.groupby("y").tail(5)["path"]), tmp_path / "wide")
+    expected, labels = load(model).predict(paths)
+    assert ((expected > 0.05) & (expected < 0.95)).sum() >= 4
+    onnx_file = to_onnx(model, tmp_path / "m.onnx")
+    got = Engine("quick").predict(onnx_file, paths, tmp_path / "p.csv")
+    np.testing.assert_allclose(got.columns["p_deformed"], expected, atol=1e-5)
+    assert list(got.columns["label"]) == labels
+    assert list(pd.read_csv(tmp_path / "p.csv")["label"]) == labels
+
+
+def test_predict_refuses_a_file_that_is_no_deformsim_export(tmp_path, blobs):
+    from deformsim.api import Engine
+
+    photo = blobs["path"][0]
+    (tmp_path / "junk.onnx").write_bytes(b"not a model")
+    with pytest.raises(UserError, match="junk.onnx is not an ONNX model"):
+        Engine("quick").predict(tmp_path / "junk.onnx", [photo])
+    with pytest.raises(UserError, match="no ONNX model at .*nope.onnx"):
+        Engine("quick").predict(tmp_path / "nope.onnx", [photo])
+    bare = onnx.helper.make_model(onnx.helper.make_graph(
+        [onnx.helper.make_node("Identity", ["image"], ["p_deformed"])], "g",
+        [onnx.helper.make_tensor_value_info("image", onnx.TensorProto.FLOAT, None)],
+        [onnx.helper.make_tensor_value_info("p_deformed", onnx.TensorProto.FLOAT, None)]))
+    onnx.save(bare, str(tmp_path / "bare.onnx"))
+    with pytest.raises(UserError, match="bare.onnx is not a model deformsim exported .*image_size"):
+        Engine("quick").predict(tmp_path / "bare.onnx", [photo])
+
+
+BLOCKED = "import sys; sys.modules.update(dict.fromkeys(['torch', 'torchvision', 'bpy', 'OpenEXR', 'matplotlib', 'ray']))"
+
+
+def _without_extras(*args: str):
+    """The command line in a process where torch, Blender, matplotlib and Ray cannot be imported."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    src = Path(__file__).resolve().parents[2] / "src"
+    code = f"{BLOCKED}; from deformsim.cli.app import app; app(sys.argv[1:], prog_name='deformsim')"
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": str(src), "COLUMNS": "200"})
+
+
+def test_without_the_extras_predict_reads_an_onnx_export_and_other_commands_name_the_extra(model_dir, blobs, tmp_path):
+    onnx_file = to_onnx(model_dir, tmp_path / "m.onnx")
+    photo = blobs["path"][0]
+    proc = _without_extras("predict", str(onnx_file), photo)
+    assert proc.returncode == 0, proc.stderr
+    p = load(model_dir).predict_proba([photo])[0]
+    assert proc.stdout.split() == [photo, f"{p:.4f}", "deformed" if p >= 0.5 else "intact"]
+    proc = _without_extras("predict", str(model_dir), photo)
+    assert proc.returncode == 1 and proc.stderr.strip().splitlines() == [
+        "error: this command needs torch, which is not installed: pip install 'deformsim[train]'"]
+    proc = _without_extras("generate", "--out", str(tmp_path / "data"), "--n", "8")
+    assert proc.returncode == 1 and "rendering needs bpy, which is not installed: pip install 'deformsim[render]'" in proc.stderr
+    assert not (tmp_path / "data").exists()

@@ -209,14 +209,13 @@ def test_every_name_shown_is_escaped(metrics, tmp_path):
     assert "&lt;img src=x onerror=&quot;alert(1)&quot;&gt;&amp;.png" in html and "&lt;b&gt;v&lt;/b&gt;" in html
 
 
-def test_layout_fits_a_phone(metrics):
+def test_every_wide_table_scrolls_in_a_box_of_its_own(metrics):
+    """On a narrow screen a wide table scrolls sideways inside its box, never the page (bench/report_screens.py
+    measures the rendered page at a phone's width in Chromium)."""
     m, out = metrics
     html = write_report(m, out).read_text()
-    # every table but the 2x2 confusion matrices scrolls in its own box; figures take the page's width; a narrow
-    # screen gets narrower margins (bench/report_screens.py looks at it in Chromium)
+    assert html.count("<table") > 3  # the report has tables besides the 2x2 confusion matrices
     assert html.count("<table") == html.count("<div class=scroll><table") + html.count('<div class="cm">')
-    assert ".scroll{overflow-x:auto" in html and ".plots img{" in html and "width:100%" in html
-    assert "@media (max-width:640px)" in html
 
 
 def test_a_low_held_out_synthetic_accuracy_is_a_warning_banner(metrics):

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import json
-import shutil
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -15,8 +13,10 @@ import numpy as np
 from deformsim.atomic import write_json
 from deformsim.bank.store import bank_dir, bank_key, is_complete
 from deformsim.errors import UserError
+from deformsim.extras import require
 from deformsim.generate.worker_client import worker_env
 from deformsim.log import get_logger, progress_bar
+from deformsim.outputs import replacing
 from deformsim.spec.model import Spec
 from deformsim.spec.simulation import entry_names
 
@@ -36,26 +36,16 @@ def bake(spec: Spec, spec_path: str | Path | None, mesh: str | Path | None, prog
     if is_complete(final, spec) and not force:
         log.info("bank: reusing %s", final)
         return final
+    require("render", what="baking the simulated bank")
     names = entry_names(spec.simulation)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=final.parent))
-    try:
+    # the old bank (force) goes only once the new one is complete; one that another process baked meanwhile stays
+    with replacing(final, keep=lambda: is_complete(final, spec) and not force) as work:
         entries, positions = _simulate(spec_path, mesh, work, len(names), progress)
         np.savez(work / "bank.npz", positions=np.stack(positions), names=np.array(names))
         write_json(work / "bank.json", {"spec": spec.name, "key": bank_key(spec, mesh),
                                         "mesh": str(mesh) if mesh else None, "entries": entries})
         for f in work.glob("[0-9]*.npy"):
             f.unlink()
-        if is_complete(final, spec) and not force:  # another process baked the same bank meanwhile
-            return final
-        if final.exists():  # force: the old bank goes only once the new one is complete
-            old = final.with_name(f".{final.name}.old")
-            final.rename(old)
-            shutil.rmtree(old)
-        work.rename(final)
-    finally:
-        if work.exists():
-            shutil.rmtree(work)
     total = sum(e["stats"]["seconds"] for e in entries)
     log.info("bank: %d entries baked in %.0f s (%.1f s each) into %s", len(entries), total, total / len(entries), final)
     return final

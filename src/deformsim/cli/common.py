@@ -10,6 +10,7 @@ import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import typer
 from rich.console import Console
@@ -17,8 +18,8 @@ from rich.console import Console
 from deformsim.dataset.images import REAL_RULE as REAL_HELP
 from deformsim.errors import UserError
 
-__all__ = ["REAL_HELP", "ConfigArgs", "console", "err_console", "fail_cleanly", "from_config", "note", "parse_sets",
-           "plain_engine", "set_option"]
+__all__ = ["REAL_HELP", "SHORTCUTS", "ConfigArgs", "console", "err_console", "fail_cleanly", "from_config", "note",
+           "parse_sets", "plain_engine", "set_option", "shortcut", "shortcut_flags", "yes_option"]
 
 console = Console()
 err_console = Console(stderr=True)
@@ -69,6 +70,14 @@ def fail_cleanly(fn):
         except KeyboardInterrupt:
             err_console.print(f"interrupted: {RESUME}")
             sys.exit(130)
+        except ModuleNotFoundError as exc:  # a module of an extra that is not installed: the extra in one line
+            from deformsim.extras import as_missing_extra
+
+            missing = as_missing_extra(exc)
+            if missing is None:
+                raise
+            error(_escape(str(missing)))
+            raise typer.Exit(missing.exit_code) from None
         except OSError as exc:
             from deformsim.outputs import os_error_line
 
@@ -130,6 +139,44 @@ def from_config(text: str, key: str) -> str:
     return f"{text} (default: {key} of the config, {shown} in quick)"
 
 
+class Shortcut(NamedTuple):
+    key: str  # the config key the flag sets
+    help: str
+    shows_default: bool = True  # the help names the key's default (:func:`from_config`)
+    decls: tuple[str, ...] = ()  # the option's names, when not just the flag
+
+
+# The flags that set one config key each, shared by the commands that take them (``generate``, ``run``).
+SHORTCUTS = {
+    "--n": Shortcut("generate.n", "Number of images"),
+    "--resolution": Shortcut("render.resolution", "Image size in pixels"),
+    "--samples": Shortcut("render.samples", "Cycles samples per pixel"),
+    "--seed": Shortcut("generate.seed", "Seed fixing every random choice"),
+    "--workers": Shortcut("generate.workers", "Render processes, 0 = automatic"),
+    "--device": Shortcut("render.device", "Render device: auto, cpu or gpu"),
+    "--backend": Shortcut("generate.backend", "Where workers run: local or ray"),
+    "--address": Shortcut("generate.address", "Ray cluster address (HOST:PORT or auto)", False),
+    "--gather": Shortcut("generate.gather", "Ray: return images to the driver", decls=("--gather/--no-gather",)),
+    "--epochs": Shortcut("train.epochs", "Training epochs"),
+    "--object": Shortcut("object.mesh", "CAD mesh instead of the built-in can", False),
+    "--spec": Shortcut("object.spec", "deformation spec YAML (for --object)", False),
+    "--backgrounds": Shortcut("composite.backgrounds", "background photos (default: procedural)", False),
+}
+
+
+def shortcut(flag: str):
+    """The typer option of the :data:`SHORTCUTS` flag ``flag`` (unset: None, the config's value)."""
+    s = SHORTCUTS[flag]
+    return typer.Option(None, *(s.decls or (flag,)), help=from_config(s.help, s.key) if s.shows_default else s.help)
+
+
+def shortcut_flags(**values) -> dict[str, tuple[str, object]]:
+    """The ``flags`` of :class:`ConfigArgs` for :data:`SHORTCUTS` options given by parameter name (``object_=...``
+    is ``--object``)."""
+    flags = {f"--{name.rstrip('_')}": value for name, value in values.items()}
+    return {flag: (SHORTCUTS[flag].key, value) for flag, value in flags.items()}
+
+
 def plain_engine(progress: bool = True, overrides: dict | None = None, notify: Callable[[str], None] | None = None):
     """An Engine for a command that reads no config: the default settings, no file read."""
     from deformsim.api import Engine
@@ -142,6 +189,13 @@ def set_option():
     """The ``--set KEY=VALUE`` option of a command that takes a config (read by :func:`parse_sets`)."""
     return typer.Option([], "--set", metavar="KEY=VALUE",
                         help="Set any config key, e.g. train.epochs=5; repeatable. Every key: deformsim config show.")
+
+
+def yes_option():
+    """The ``--yes`` option of a command that renders: it starts a plan larger than the confirmation limit."""
+    return typer.Option(
+        False, "--yes", help="start a plan of more than 100000 images (without it: the estimated time and disk, and a stop)"
+    )
 
 
 def parse_sets(items: Sequence[str]) -> dict:

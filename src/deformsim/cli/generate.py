@@ -7,30 +7,27 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import ConfigArgs, console, fail_cleanly, from_config, set_option
+from deformsim.cli.common import ConfigArgs, console, fail_cleanly, set_option, shortcut, shortcut_flags, yes_option
 
 
 def generate(
     out: Path = typer.Option(..., "--out", "-o", help="output folder (rerun to resume)"),
     config: str = typer.Option("quick", "--config", "-c", help="YAML config file or preset name"),
-    n: Optional[int] = typer.Option(None, "--n", help=from_config("Number of images", "generate.n")),
-    resolution: Optional[int] = typer.Option(None, help=from_config("Image size in pixels", "render.resolution")),
-    samples: Optional[int] = typer.Option(None, help=from_config("Cycles samples per pixel", "render.samples")),
-    seed: Optional[int] = typer.Option(None, help=from_config("Seed fixing every random choice", "generate.seed")),
-    workers: Optional[int] = typer.Option(None, help=from_config("Render processes, 0 = automatic", "generate.workers")),
-    device: Optional[str] = typer.Option(None, help=from_config("Render device: auto, cpu or gpu", "render.device")),
-    object_: Optional[Path] = typer.Option(None, "--object", help="CAD mesh instead of the built-in can"),
-    spec: Optional[Path] = typer.Option(None, "--spec", help="deformation spec YAML"),
-    backend: Optional[str] = typer.Option(None, help=from_config("Where workers run: local or ray", "generate.backend")),
-    address: Optional[str] = typer.Option(None, help="Ray cluster address (HOST:PORT or auto)"),
-    gather: Optional[bool] = typer.Option(None, "--gather/--no-gather",
-                                          help=from_config("Ray: return images to the driver", "generate.gather")),
+    n: Optional[int] = shortcut("--n"),
+    resolution: Optional[int] = shortcut("--resolution"),
+    samples: Optional[int] = shortcut("--samples"),
+    seed: Optional[int] = shortcut("--seed"),
+    workers: Optional[int] = shortcut("--workers"),
+    device: Optional[str] = shortcut("--device"),
+    object_: Optional[Path] = shortcut("--object"),
+    spec: Optional[Path] = shortcut("--spec"),
+    backend: Optional[str] = shortcut("--backend"),
+    address: Optional[str] = shortcut("--address"),
+    gather: Optional[bool] = shortcut("--gather"),
     overwrite: bool = typer.Option(
         False, "--overwrite", help="replace a dataset in --out made with other settings, inputs or more images"
     ),
-    yes: bool = typer.Option(
-        False, "--yes", help="start a plan of more than 100000 images (without it: the estimated time and disk, and a stop)"
-    ),
+    yes: bool = yes_option(),
     set_: list[str] = set_option(),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while rendering."),
 ) -> None:
@@ -40,13 +37,9 @@ def generate(
     settings, another mesh or spec content, or more images than --n is refused unless --overwrite is given,
     which removes it as a whole and renders anew. More than 100000 images print their estimated time and
     disk and stop unless --yes is given."""
-    result = ConfigArgs(config, {
-        "--n": ("generate.n", n), "--resolution": ("render.resolution", resolution),
-        "--samples": ("render.samples", samples), "--seed": ("generate.seed", seed),
-        "--workers": ("generate.workers", workers), "--device": ("render.device", device),
-        "--object": ("object.mesh", object_), "--spec": ("object.spec", spec), "--backend": ("generate.backend", backend),
-        "--address": ("generate.address", address), "--gather": ("generate.gather", gather),
-    }, sets=set_).engine(progress).generate(out, overwrite=overwrite, yes=yes)
+    flags = shortcut_flags(n=n, resolution=resolution, samples=samples, seed=seed, workers=workers, device=device,
+                           object_=object_, spec=spec, backend=backend, address=address, gather=gather)
+    result = ConfigArgs(config, flags, sets=set_).engine(progress).generate(out, overwrite=overwrite, yes=yes)
     console.print(
         f"[bold]{result.images}[/] images in {out} ({result.rendered} samples rendered now, "
         f"{result.seconds:.0f} s{', ' + result.device if result.device else ''}); "

@@ -58,7 +58,7 @@ def train(
 
 
 def predict(
-    model_dir: Path = typer.Argument(..., help="folder with model.pt (or the file)"),
+    model_dir: Path = typer.Argument(..., help="folder with model.pt (or the file), or an exported .onnx"),
     images: list[Path] = typer.Argument(..., help="image files or folders"),
     csv: Optional[Path] = typer.Option(None, "--csv", help="also write path,p_deformed,label to this CSV"),
     adapt: bool = typer.Option(False, "--adapt", help="first adapt the model to these images (at least 8; no label "

@@ -7,7 +7,18 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.common import REAL_HELP, ConfigArgs, console, err_console, fail_cleanly, from_config, note, set_option
+from deformsim.cli.common import (
+    REAL_HELP,
+    ConfigArgs,
+    console,
+    err_console,
+    fail_cleanly,
+    note,
+    set_option,
+    shortcut,
+    shortcut_flags,
+    yes_option,
+)
 from deformsim.cli.summary import report_summary
 
 
@@ -18,32 +29,28 @@ def register(app: typer.Typer) -> None:
         config: str = typer.Option("quick", "--config", "-c", help="YAML config file or preset name"),
         out: Path = typer.Option(Path("runs/demo"), "--out", "-o", help="run folder"),
         real: Optional[Path] = typer.Option(None, "--real", help=f"real photos for sim-to-real: {REAL_HELP}"),
-        backgrounds: Optional[Path] = typer.Option(None, "--backgrounds", help="background photos (default: procedural)"),
-        object_: Optional[Path] = typer.Option(None, "--object", help="CAD mesh instead of the built-in can"),
-        spec: Optional[Path] = typer.Option(None, "--spec", help="deformation spec YAML for --object"),
-        n: Optional[int] = typer.Option(None, "--n", help=from_config("Number of images", "generate.n")),
-        resolution: Optional[int] = typer.Option(None, help=from_config("Image size in pixels", "render.resolution")),
-        samples: Optional[int] = typer.Option(None, help=from_config("Cycles samples per pixel", "render.samples")),
-        epochs: Optional[int] = typer.Option(None, help=from_config("Training epochs", "train.epochs")),
-        seed: Optional[int] = typer.Option(None, help=from_config("Seed fixing every random choice", "generate.seed")),
+        backgrounds: Optional[Path] = shortcut("--backgrounds"),
+        object_: Optional[Path] = shortcut("--object"),
+        spec: Optional[Path] = shortcut("--spec"),
+        n: Optional[int] = shortcut("--n"),
+        resolution: Optional[int] = shortcut("--resolution"),
+        samples: Optional[int] = shortcut("--samples"),
+        epochs: Optional[int] = shortcut("--epochs"),
+        seed: Optional[int] = shortcut("--seed"),
         overwrite: bool = typer.Option(
             False, "--overwrite", help="render the dataset anew when it holds more images than --n (else refused)"
         ),
-        yes: bool = typer.Option(
-            False, "--yes", help="start a plan of more than 100000 images (without it: the estimated time and disk, and a stop)"
-        ),
+        yes: bool = yes_option(),
         set_: list[str] = set_option(),
         progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
     ) -> None:
         """Generate, composite, train, evaluate and report; stages already up to date are skipped.
 
         Inputs count by content: an edited mesh, spec, background or real photo reruns what depends on it."""
-        result = ConfigArgs(config, {
-            "--object": ("object.mesh", object_), "--spec": ("object.spec", spec), "--n": ("generate.n", n),
-            "--resolution": ("render.resolution", resolution), "--samples": ("render.samples", samples),
-            "--epochs": ("train.epochs", epochs), "--seed": ("generate.seed", seed),
-            "--backgrounds": ("composite.backgrounds", backgrounds),
-        }, sets=set_).engine(progress, note(err_console)).run(out, real, overwrite=overwrite, yes=yes)
+        flags = shortcut_flags(object_=object_, spec=spec, n=n, resolution=resolution, samples=samples, epochs=epochs,
+                               seed=seed, backgrounds=backgrounds)
+        engine = ConfigArgs(config, flags, sets=set_).engine(progress, note(err_console))
+        result = engine.run(out, real, overwrite=overwrite, yes=yes)
         for name, secs in result.seconds.items():
             console.print(f"  {name:<24} {secs:7.1f} s")
         if result.skipped:

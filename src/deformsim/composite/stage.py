@@ -4,8 +4,9 @@ A variant is ``OUT/variants/NAME/`` with ``images/ID.png``, ``manifest.parquet``
 went into each composite) and ``composite.json`` (the settings); for a dataset with dense maps also
 ``{mask,deform,region}/ID.png``, moved exactly like the part (:mod:`deformsim.composite.maps`). Each image
 draws from its own streams (:mod:`deformsim.sampling.streams`, keyed by the image id), so the result does not depend
-on the number of workers. The variant is built in a staging folder and swapped in only when complete; workers end
-with the run, and the next run removes the staging folder of one that was killed. Optional steps, each recorded
+on the number of workers. The variant is built in a staging folder beside it and swapped in only when complete
+(:func:`deformsim.outputs.replacing`); workers end with the run, and the next run removes the staging folder of one
+that was killed. Optional steps, each recorded
 per image: a class-balanced choice of background photo, framing around the object
 (:mod:`deformsim.composite.framing`), a left-right flip of the part (``flip_part``, from a stream of its own)
 and camera effects (:mod:`deformsim.composite.effects`). With ``composite.surface`` a share of the images (drawn
@@ -21,8 +22,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import shutil
-import tempfile
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
@@ -50,13 +49,13 @@ from deformsim.dataset.manifest import read_manifest
 from deformsim.dataset.variants import VARIANT_MANIFEST
 from deformsim.errors import UserError
 from deformsim.log import progress_bar
-from deformsim.parallel import die_with_parent, owner_gone, owner_tag, worker_count
+from deformsim.outputs import replacing
+from deformsim.parallel import die_with_parent, worker_count
 from deformsim.sampling.streams import stable_int, stream
 from deformsim.schema import MAX_SEED, shown
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 _STATE: dict = {}
-STAGING = ".staging-"  # variants/.staging-HOST-PID-START-XXXX/: a run's new variant, then the old one it replaced
 
 
 SETTINGS_FILE = "composite.json"
@@ -93,13 +92,9 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
         first = balanced_photos(manifest["id"].tolist(), manifest["y"].tolist(), len(photos), seed)
         jobs = [(*job, first[twins.get(job[0], job[0])]) for job in jobs]  # a twin's photo is its deformed twin's
 
-    variants = layout.root / "variants"
-    sweep_staging(variants)
-    variants.mkdir(exist_ok=True)
-    run = Path(tempfile.mkdtemp(prefix=f"{STAGING}{owner_tag()}-", dir=variants))
-    tmp = run / name
-    try:
-        (tmp / "images").mkdir(parents=True)
+    final = layout.variant_dir(name)
+    with replacing(final) as tmp:
+        (tmp / "images").mkdir()
         state = {"cfg": cfg.model_dump(), "seed": seed, "photos": photos, "out": str(tmp / "images"),
                  "prefix": f"variants/{name}/images", "maps_out": str(tmp), "maps_prefix": f"variants/{name}",
                  "twins": twins}
@@ -114,23 +109,7 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
         df = pd.DataFrame(rows).sort_values("id").reset_index(drop=True)
         df.to_parquet(tmp / VARIANT_MANIFEST, index=False)
         write_json(tmp / SETTINGS_FILE, variant_settings(name, seed, cfg))
-        final = _swap(tmp, layout.variant_dir(name), run)
-    finally:
-        shutil.rmtree(run, ignore_errors=True)
     return final
-
-
-def sweep_staging(variants: Path) -> None:
-    """Remove the staging folders under ``variants`` of composite runs that ended without cleaning up (killed); a
-    variant that such a run had moved aside but not yet replaced is put back."""
-    for folder in variants.glob(f"{STAGING}*"):
-        tag = folder.name[len(STAGING):].rpartition("-")[0]  # the part before mkdtemp's random suffix
-        if not (folder.is_dir() and owner_gone(tag)):
-            continue
-        new = [p for p in folder.iterdir() if p.name != ".old"]
-        if (folder / ".old").is_dir() and len(new) == 1 and not (variants / new[0].name).exists():
-            os.replace(folder / ".old", variants / new[0].name)
-        shutil.rmtree(folder, ignore_errors=True)
 
 
 def twin_ids(manifest: pd.DataFrame) -> dict[str, str]:
@@ -373,10 +352,3 @@ def _background(rng: np.random.Generator, cfg: CompositeConfig, h: int, w: int,
         return bg, {"background": path, **info}
     raise UserError("no background photo could be decoded: " + ", ".join(sorted(_STATE["bad"])))
 
-
-def _swap(tmp: Path, final: Path, run: Path) -> Path:
-    """Move the finished ``tmp`` folder onto ``final``; the old variant goes into ``run`` and is removed afterwards."""
-    if final.exists():
-        os.replace(final, run / ".old")  # no variant name starts with a dot
-    os.replace(tmp, final)
-    return final

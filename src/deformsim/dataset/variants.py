@@ -21,9 +21,15 @@ VARIANT_MANIFEST = "manifest.parquet"
 _REMAKE = "rerun deformsim composite to make it again"
 
 
+def made_manifests(root: str | Path) -> list[Path]:
+    """The manifests of the composited variants under ``root``, sorted; not those of a run's staging folder
+    (``.NAME.staging-...``, :func:`deformsim.outputs.replacing`)."""
+    found = (Path(root) / "variants").glob(f"*/{VARIANT_MANIFEST}")
+    return sorted(p for p in found if not p.parent.name.startswith("."))
+
+
 def list_variants(root: str | Path) -> list[str]:
-    layout = Layout(Path(root))
-    made = sorted(p.parent.name for p in (layout.root / "variants").glob(f"*/{VARIANT_MANIFEST}"))
+    made = [p.parent.name for p in made_manifests(root)]
     return [k for k in RENDER_KINDS if k != "rgba"] + made
 
 

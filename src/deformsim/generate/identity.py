@@ -14,7 +14,7 @@ import json
 from deformsim.bank.store import bank_key
 from deformsim.config import Config
 from deformsim.hdri import hdri_files
-from deformsim.identity import digest, file_digest, files_digest, settings
+from deformsim.identity import content_inputs, digest, file_digest, files_digest, settings
 from deformsim.sampling import artwork_photos, surface_photos
 from deformsim.spec.model import Spec, check_mesh_file, load_spec
 
@@ -40,24 +40,37 @@ def appearance_photos(cfg: Config) -> list[str] | None:
     return artwork_photos(a.photos) if a is not None and a.photos is not None else None
 
 
+def _photos_digest(photos: list[str] | None, root) -> str | None:
+    return files_digest(photos, root) if photos else None
+
+
+# How each input read by content (its rule's key) is named: from the config, the input's path and the parsed spec.
+_DIGESTS = {
+    "mesh": lambda cfg, path, spec: file_digest(path) if path is not None else None,
+    "spec": lambda cfg, path, spec: hashlib.sha256(json.dumps(spec.model_dump(mode="json"), sort_keys=True)
+                                                   .encode()).hexdigest(),
+    "hdri": lambda cfg, path, spec: files_digest(list(hdri_files(path).values()), path) if path is not None else None,
+    "surface": lambda cfg, path, spec: _photos_digest(texture_photos(cfg), path),
+    "artwork": lambda cfg, path, spec: _photos_digest(appearance_photos(cfg), path),
+}
+_RECORDED_UNSET = ("mesh", "hdri")  # recorded as null when unset since the first datasets; the others left out
+
+
 def input_digests(cfg: Config, spec: Spec | None = None) -> dict:
     """What the renders are made from, by content: sha256 of the mesh file, of the parsed spec (so a comment
     or a reformatting does not count, a changed range does), of the HDRI files, the surface and artwork photos
-    when the config uses them, and the simulated bank's key when the samples use it."""
+    when the config uses them (every field read by content, :meth:`Config.input_paths`), and the simulated
+    bank's key when the samples use it."""
     spec = spec or load_spec(cfg.object.spec)
     mesh = cfg.object.mesh
     if mesh is not None:
         check_mesh_file(mesh)
-    hdri = cfg.lighting.hdri_dir
-    return {
-        "renderer": RENDERER,
-        "mesh": file_digest(mesh) if mesh is not None else None,
-        "spec": hashlib.sha256(json.dumps(spec.model_dump(mode="json"), sort_keys=True).encode()).hexdigest(),
-        "hdri": files_digest(list(hdri_files(hdri).values()), hdri) if hdri is not None else None,
-        "bank": bank_key(spec, mesh) if cfg.deform.sources.uses_bank and spec.simulation else None,
-        **({"surface": files_digest(photos, cfg.render.surface.photos)} if (photos := texture_photos(cfg)) else {}),
-        **({"artwork": files_digest(art, cfg.render.appearance.photos)} if (art := appearance_photos(cfg)) else {}),
-    }
+    digests = {"renderer": RENDERER, "bank": bank_key(spec, mesh) if cfg.deform.sources.uses_bank and spec.simulation else None}
+    for rule, path in content_inputs(cfg):
+        value = _DIGESTS[rule.key](cfg, path, spec)
+        if value is not None or rule.key in _RECORDED_UNSET:
+            digests[rule.key] = value
+    return digests
 
 
 def data_identity(cfg: Config, spec: Spec | None = None) -> dict:

@@ -8,11 +8,13 @@ import sys
 from pathlib import Path
 
 from deformsim.errors import UserError
+from deformsim.extras import require
 from deformsim.generate.worker_client import worker_env
 
 
 def probe_mesh(mesh: Path, spec_path: Path | None, timeout: float = 300) -> dict:
     """Import ``mesh`` in a throwaway Blender process; its size, or a UserError naming the problem."""
+    require("render", what="reading a mesh")
     args = [sys.executable, "-m", "deformsim.blender.part.mesh_import", str(mesh)] + ([str(spec_path)] if spec_path else [])
     proc = subprocess.run(args, capture_output=True, text=True, env=worker_env(), timeout=timeout)
     if proc.returncode == 2:

@@ -19,6 +19,7 @@ from deformsim.config import Config
 from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
 from deformsim.dataset.rendered import Rendered
 from deformsim.errors import UserError
+from deformsim.extras import require
 from deformsim.generate.backend import Retries, finish_sample, worker_setup
 from deformsim.log import get_logger, progress_bar
 from deformsim.parallel import cores_per_worker, worker_count
@@ -119,10 +120,8 @@ def connect(address: str | None) -> None:
 
 def run_ray(cfg: Config, layout: Layout, params: dict[int, SampleParams], progress: bool) -> tuple[dict[int, str], str]:
     """Render ``params`` on Ray actors; returns (failed samples with reasons, device)."""
-    try:
-        import ray
-    except ImportError:
-        raise UserError("the ray backend needs Ray: pip install 'deformsim[ray]'") from None
+    require("ray", what="generate.backend ray")
+    import ray
     from ray.exceptions import RayActorError
 
     started_here = not ray.is_initialized()

@@ -23,7 +23,7 @@ from deformsim.spec.simulation import entry_names
 
 log = get_logger(__name__)
 
-BAKE_SECONDS_PER_ENTRY = 13  # measured on 2 cores (docs/benchmarks.md, bank bake)
+BAKE_SECONDS_PER_ENTRY = 13  # measured on 2 cores (docs/experiments/bank.md)
 REST_GREY, DEFORMED_RED = (60, 60, 60), (207, 34, 46)
 
 FIXED_VIEW = {"camera.azimuth_quadrants": [[40, 40]], "pose.tilt": [0, 0], "camera.polar": [62, 62],

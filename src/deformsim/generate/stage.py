@@ -25,6 +25,7 @@ from deformsim.dataset.images import open_rgb
 from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import consolidate, read_record
 from deformsim.errors import ResourceError, UserError
+from deformsim.extras import require
 from deformsim.generate.backend import disk_full, remove_partial_files
 from deformsim.generate.identity import appearance_photos, input_digests, texture_photos
 from deformsim.generate.local import run_local
@@ -33,7 +34,7 @@ from deformsim.generate.refusals import check_part, check_probe, existing_datase
 from deformsim.generate.visibility import invisible_keys
 from deformsim.hdri import drawn_hdris
 from deformsim.log import get_logger
-from deformsim.outputs import check_apart, check_folder_target, remove_folder, sweep
+from deformsim.outputs import check_apart, check_folder_target, check_outside, remove_folder, sweep
 from deformsim.sampling import allowed_families, sample_params
 from deformsim.spec.model import Spec, load_spec, units_hint
 from deformsim.version import __version__
@@ -62,6 +63,8 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
     ``spec``: ``cfg``'s spec when the caller has loaded it already.
     """
     out = check_folder_target(out, "--out")
+    check_outside(out, "--out", cfg.photo_folders())  # its renders would be read as photos next time
+    require("render", *(("ray",) if cfg.generate.backend == "ray" else ()), what="rendering")
     spec = spec or load_spec(cfg.object.spec)
     allowed_families(cfg, spec)
     if cfg.deform.sources.uses_bank and spec.simulation is None:
@@ -80,11 +83,7 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
         raise UserError(f"{out} {conflict}")
     if conflict is not None:
         check_folder_target(out, "--out", replace=True)  # it is removed as a whole
-        surface = cfg.render.surface
-        check_apart(out, "--out", {"mesh": cfg.object.mesh, "spec": cfg.object.spec, "HDRI folder": cfg.lighting.hdri_dir,
-                                   "surface photo folder": surface.photos if surface is not None else None,
-                                   "artwork photo folder": cfg.render.appearance.photos
-                                   if cfg.render.appearance is not None else None})
+        check_apart(out, "--out", cfg.input_paths())
     size, hint = check_part_mesh(spec, cfg.object.mesh, cfg.object.spec)
     if hint:
         log.warning("mesh %s: %s", cfg.object.mesh, hint)

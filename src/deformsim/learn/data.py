@@ -5,26 +5,15 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import numpy as np
 import torch
-from PIL import Image
 
-from deformsim.dataset.images import open_rgb
+from deformsim.learn.model_input import model_input
 
 
 def load_image(path: str | Path, size: int, crop: str = "none", flip: bool = False) -> torch.Tensor:
-    """0-1 RGB float tensor (3, size, size); the image is resized (not cropped) to a square, as in the paper, after
-    the test-time ``crop`` (:func:`deformsim.learn.crops.crop`), and mirrored left to right with ``flip``.
-
-    Any file mode reads as the same 8-bit sRGB RGB (:func:`deformsim.dataset.images.open_rgb`).
-    """
-    im = open_rgb(path)
-    if crop != "none":
-        from deformsim.learn.crops import crop as crop_image
-
-        im = crop_image(im, crop)
-    x = torch.from_numpy(np.asarray(im.resize((size, size), Image.BILINEAR)).copy()).permute(2, 0, 1).float().div_(255)
-    return x.flip(-1) if flip else x
+    """:func:`deformsim.learn.model_input.model_input` as a tensor (3, size, size): 0-1 RGB, resized to a square
+    after the test-time ``crop``, mirrored with ``flip``."""
+    return torch.from_numpy(model_input(path, size, crop, flip))
 
 
 def augmenter(size: int):

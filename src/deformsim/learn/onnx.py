@@ -50,6 +50,9 @@ def to_onnx(model_path: str | Path, onnx_path: str | Path) -> Path:
     """
     onnx_path = check_file_target(onnx_path, "--onnx", [model_path])
     ckpt, path = read_checkpoint(model_path)
+    if "adapter" in ckpt:
+        raise UserError(f"{path} is adapted to photos (deformsim adapt), which the ONNX graph does not hold yet: export "
+                        "the model it was made from, or predict with this one")
     model, cfg = restore(ckpt, path)
     models = [model] + [m for m, _ in restore_mixture(ckpt, path)]
     try:

@@ -34,7 +34,7 @@ def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = Non
     """
     from deformsim.dataset.layout import Layout
     from deformsim.dataset.manifest import read_manifest
-    from deformsim.dataset.variants import VARIANT_MANIFEST
+    from deformsim.dataset.variants import made_manifests
     from deformsim.evaluate.experiments import run_experiments
     from deformsim.report.html import write_report
 
@@ -43,7 +43,7 @@ def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = Non
     check_outside(out, "--out", {"real photos": real})  # its plots would be read as photos
     read_manifest(data)  # a clear error when ``data`` is not a dataset
     layout = Layout(data)
-    manifests = [layout.manifest, *sorted((layout.root / "variants").glob(f"*/{VARIANT_MANIFEST}"))]
+    manifests = [layout.manifest, *made_manifests(data)]
     identity = {"settings": cfg.model_dump(mode="json"), "inputs": {"data": files_digest(manifests, data),
                                                                     "real": real_digest(real)}}
     shots = None
