@@ -65,9 +65,12 @@ def predict(
                                "read), as deformsim adapt --method probe does, in memory"),
 ) -> None:
     """Print P(deformed) and the predicted label of each image (or what a --target model predicts)."""
-    from deformsim.learn.adapter import AdaptRecipe
+    recipe = None
+    if adapt:
+        from deformsim.learn.adapter import AdaptRecipe
 
-    prediction = plain_engine().predict(model_dir, images, csv, AdaptRecipe() if adapt else None)
+        recipe = AdaptRecipe()
+    prediction = plain_engine().predict(model_dir, images, csv, recipe)
     if prediction.prior is not None:
         err_console.print(f"adapted to these {len(prediction.paths)} images: an estimated {prediction.prior:.0%} of "
                           "them deformed", highlight=False, soft_wrap=True)

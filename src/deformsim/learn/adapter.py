@@ -22,7 +22,6 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
-import torch
 
 from deformsim.errors import UserError
 
@@ -78,6 +77,8 @@ def fit_logistic(x: np.ndarray, target: np.ndarray, weight: np.ndarray, l2: floa
                  offset: np.ndarray | None = None) -> tuple[np.ndarray, float]:
     """Coefficients and bias minimising the weighted mean cross-entropy of ``sigmoid(offset + x @ w + b)`` against
     the soft ``target`` plus ``l2 / 2 * |w|^2`` (float64 L-BFGS from zero: deterministic on a CPU)."""
+    import torch
+
     with torch.random.fork_rng(devices=[]):
         xs, ts, ws = (torch.as_tensor(np.asarray(a, dtype=np.float64)) for a in (x, target, weight))
         off = torch.zeros(len(xs), dtype=torch.float64) if offset is None else torch.as_tensor(offset, dtype=torch.float64)
