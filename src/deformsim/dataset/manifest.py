@@ -14,12 +14,15 @@ import pandas as pd
 
 from deformsim.atomic import atomic_path, write_json
 from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
+from deformsim.dataset.paths import file_stem
 from deformsim.dataset.rendered import Rendered
 from deformsim.errors import UserError
 from deformsim.sampling import SampleParams
+from deformsim.schema import shown
 
 # Columns that measure the run rather than describe the data: excluded when comparing manifests.
 VOLATILE_COLUMNS = ("render_seconds",)
+LABELS = ("intact", "deformed")  # by y
 
 
 def rows_for(p: SampleParams, layout: Layout, rendered: Rendered, camera_scale: float = 1.0) -> list[dict]:
@@ -155,7 +158,28 @@ def read_manifest(root: str | Path) -> pd.DataFrame:
     df = read_parquet(layout.manifest, "manifest", fix)
     if "y" in df.columns and not df["y"].isin([0, 1]).all():
         raise UserError(f"manifest {layout.manifest} has labels y other than 0 (intact) and 1 (deformed): {fix}")
+    check_names(df, f"manifest {layout.manifest}", fix)
     return df
+
+
+def check_names(df: pd.DataFrame, what: str, fix: str) -> None:
+    """A :class:`UserError` naming ``what`` and its row unless every ``id`` is a plain file name
+    (:func:`~deformsim.dataset.paths.file_stem`: it names the image's files) seen once, and every ``label`` is
+    intact or deformed, as its ``y`` says."""
+    if "id" in df.columns:
+        for i, iid in enumerate(df["id"]):
+            file_stem(iid, f"{what} row {i} (id)")
+        repeated = df["id"][df["id"].duplicated()]
+        if len(repeated):
+            raise UserError(f"{what} has the id {shown(repeated.iloc[0], 80)!r} more than once: {fix}")
+    if "label" in df.columns:
+        ys = df["y"] if "y" in df.columns else [None] * len(df)
+        for i, (label, y) in enumerate(zip(df["label"], ys)):
+            if label not in LABELS:
+                shown_label = repr(shown(label, 80)) if isinstance(label, str) else shown(label, 80)
+                raise UserError(f"{what} row {i} (label): {shown_label} is not a class: intact or deformed")
+            if y is not None and LABELS.index(label) != y:
+                raise UserError(f"{what} row {i}: label {label!r} but y {y}: {fix}")
 
 
 def read_parquet(path: Path, what: str, fix: str = "") -> pd.DataFrame:

@@ -74,6 +74,8 @@ def _checked_variant(layout: Layout, manifest: pd.DataFrame, name: str) -> pd.Da
     missing = {"id", "image"} - set(v.columns)
     if missing:
         raise UserError(f"variant manifest {vpath} lacks column(s) {', '.join(sorted(missing))}: {_REMAKE}")
+    if not all(isinstance(i, str) for i in v["id"]):
+        raise UserError(f"variant manifest {vpath} has image ids that are not text: {_REMAKE}")
     if not all(isinstance(p, str) for p in v["image"]):
         raise UserError(f"variant manifest {vpath} has image paths that are not text: {_REMAKE}")
     ids, own = set(manifest["id"].astype(str)), set(v["id"].astype(str))
