@@ -264,3 +264,17 @@ def test_a_spec_that_cannot_rig_a_solid_mesh_is_refused_after_the_shape_checks()
     with pytest.raises(UserError, match="is flat"):
         check_probe(Path("m.stl"), {"size": [0.1, 0.1, 0.0], "vertices": 8, "rig": rig})
     assert check_probe(Path("m.stl"), {"size": [0.1, 0.1, 0.2], "vertices": 8}) == [0.1, 0.1, 0.2]
+
+
+def test_overwrite_never_removes_an_output_kept_inside_the_dataset(monkeypatch, tmp_path):
+    """`generate --out DATA --overwrite` removed a model and a report kept in DATA (docs/identity.md: never)."""
+    use_fakes(monkeypatch)
+    out = tmp_path / "D"
+    generate(cfg_for(n=16), out, progress=False)
+    for name, kind in (("mymodel", "model"), ("rep", "report")):  # as an older deformsim let train and report make
+        (out / name).mkdir()
+        (out / name / "inputs.json").write_text(f'{{"kind": "{kind}"}}')
+    with pytest.raises(UserError, match=rf"holds the deformsim model {out / 'mymodel'}, which replacing it would "
+                                        "remove: move that out first"):
+        generate(cfg_for(n=8), out, progress=False, overwrite=True)
+    assert len(read_manifest(out)) == 16 and (out / "rep" / "inputs.json").is_file()

@@ -33,7 +33,7 @@ from deformsim.generate.refusals import check_part, check_probe, existing_datase
 from deformsim.generate.visibility import invisible_keys
 from deformsim.hdri import drawn_hdris
 from deformsim.log import get_logger
-from deformsim.outputs import check_apart, check_folder_target, remove_folder, sweep
+from deformsim.outputs import check_apart, check_folder_target, check_no_nested, remove_folder, sweep
 from deformsim.sampling import allowed_families, sample_params
 from deformsim.spec.model import Spec, load_spec, units_hint
 from deformsim.version import __version__
@@ -80,6 +80,7 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
         raise UserError(f"{out} {conflict}")
     if conflict is not None:
         check_folder_target(out, "--out", replace=True)  # it is removed as a whole
+        check_no_nested(out)
         surface = cfg.render.surface
         check_apart(out, "--out", {"mesh": cfg.object.mesh, "spec": cfg.object.spec, "HDRI folder": cfg.lighting.hdri_dir,
                                    "surface photo folder": surface.photos if surface is not None else None,
