@@ -151,7 +151,7 @@ class Engine:
         another ``train.target`` predicts; also written to ``csv`` (columns path, then the prediction's)."""
         import pandas as pd
 
-        from deformsim.atomic import atomic_path
+        from deformsim.atomic import atomic_path, printable
         from deformsim.dataset.real import expand_images
         from deformsim.learn.predict import load
         from deformsim.outputs import check_file_target
@@ -167,7 +167,7 @@ class Engine:
             prediction = _target_prediction(predictor, paths)
         if csv is not None:
             with atomic_path(csv) as tmp:
-                pd.DataFrame({"path": [str(p) for p in paths], **prediction.columns}).to_csv(tmp, index=False)
+                pd.DataFrame({"path": [printable(str(p)) for p in paths], **prediction.columns}).to_csv(tmp, index=False)
         return prediction
 
     def export_onnx(self, model: str | Path, onnx: str | Path) -> Path:

@@ -8,6 +8,7 @@ rule. A small "generated" dataset is made from the blob images (no Blender).
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import time
 from pathlib import Path
@@ -247,3 +248,27 @@ def test_a_folder_holding_another_output_is_never_replaced(dataset, model, confi
         res = invoke("train", dataset, "--variant", "black", "--out", outer, "--config", config, *extra, *TRAIN)
         assert f"holds the deformsim model {inner}, which replacing it would remove" in one_line_error(res)
     assert _files(outer) == before
+
+
+def _odd_named(real: Path, tmp_path: Path) -> tuple[Path, str]:
+    """A copy of ``real`` with one photo named with a byte that is not UTF-8 (``bad\\xffname.png``)."""
+    copy = shutil.copytree(real, tmp_path / "odd")
+    photo = sorted((copy / "deformed").glob("*.png"))[0]
+    name = os.fsdecode(b"bad\xffname.png")
+    photo.rename(photo.parent / name)
+    return copy, name
+
+
+def test_a_photo_name_that_is_not_utf8_is_written_as_it_can_be(dataset, model, real, config, tmp_path):
+    """predict --csv, finetune --real and report --real stopped with UnicodeEncodeError (evaluate coped)."""
+    odd, name = _odd_named(real, tmp_path)
+    res = invoke("predict", model, odd, "--csv", tmp_path / "p.csv")
+    assert res.exit_code == 0, res.output
+    assert "bad\\xffname.png" in (tmp_path / "p.csv").read_text()
+    res = invoke("finetune", model, "--real", odd, "--out", tmp_path / "ft", "--steps", "1", "--views", "0",
+                 "--no-progress")
+    assert res.exit_code == 0, res.output
+    res = invoke("report", dataset, "--out", tmp_path / "rep", "--real", odd, "--variants", "black", "--config", config,
+                 *TRAIN)
+    assert res.exit_code == 0, res.output
+    assert "bad\\xffname.png" in (tmp_path / "rep" / "report.html").read_text()

@@ -83,9 +83,12 @@ def fail_cleanly(fn):
 
 
 def _escape(text: str) -> str:
+    """``text`` for rich's markup, printable whatever the bytes of the names in it (:func:`deformsim.atomic.printable`)."""
     from rich.markup import escape
 
-    return escape(text)
+    from deformsim.atomic import printable
+
+    return escape(printable(text))
 
 
 @dataclass(frozen=True)

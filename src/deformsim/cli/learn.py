@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 from rich.table import Table
 
+from deformsim.atomic import printable
 from deformsim.cli.common import ConfigArgs, console, err_console, fail_cleanly, from_config, plain_engine, set_option
 from deformsim.learn.backbones import BACKBONES
 
@@ -64,7 +65,7 @@ def predict(
 ) -> None:
     """Print P(deformed) and the predicted label of each image (or what a --target model predicts)."""
     prediction = plain_engine().predict(model_dir, images, csv)
-    rows = [[str(p), *(v[i] if isinstance(v[i], str) else f"{v[i]:.4f}" for v in prediction.columns.values())]
+    rows = [[printable(str(p)), *(v[i] if isinstance(v[i], str) else f"{v[i]:.4f}" for v in prediction.columns.values())]
             for i, p in enumerate(prediction.paths)]
     if console.is_terminal:
         table = Table("image", *prediction.headings)
