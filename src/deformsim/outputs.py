@@ -333,6 +333,41 @@ def replacing(out: str | Path, identity: dict | None = None, kind: str | None = 
         shutil.rmtree(staging, ignore_errors=True)
 
 
+@contextmanager
+def locked(out: str | Path, what: str, flag: str = "--out") -> Iterator[None]:
+    """Hold ``.NAME.lock`` beside ``out`` while the block runs: one writer at a time. The file names its holder's
+    pid; its lock (``flock``) ends with the holder, so a lock left by a process that died is taken over. A
+    :class:`UserError` naming the holder when a live process holds it."""
+    import fcntl
+
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    path = out.parent / f".{out.name}.lock"
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise UserError(f"{flag} {out} is being written by another deformsim {what} (process {holder}, lock "
+                            f"{path}): wait for it to end, or stop it first") from None
+        try:
+            same = os.fstat(fd).st_ino == os.stat(path).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)  # the holder removed it as we opened it: lock the new one
+    try:
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        yield
+    finally:
+        path.unlink(missing_ok=True)
+        os.close(fd)
+
+
 def os_error_line(exc: OSError) -> tuple[str, int]:
     """One line (and the exit code) for an OSError that reached the command line."""
     where = f" ({exc.filename})" if exc.filename else ""
