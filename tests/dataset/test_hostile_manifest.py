@@ -87,3 +87,14 @@ def test_composite_never_reads_a_render_outside_the_dataset(data, tmp_path, col)
     with pytest.raises(UserError, match="outside the dataset"):
         composite(data, CompositeConfig(workers=1, matte="alpha" if col == "rgba" else "chroma"), "bg", progress=False)
 
+
+
+@pytest.mark.parametrize("col, values", [("region_fraction", [[1.0, 2.0]] * 4), ("id", list(range(4)))])
+def test_a_variant_manifest_column_of_another_type_is_one_line(data, tmp_path, col, values):
+    """A list in a composited variant's column reached the export (TypeError); ids that are numbers a merge."""
+    composite(data, CompositeConfig(workers=1), "bg", progress=False)
+    path = data / "variants" / "bg" / "manifest.parquet"
+    pd.read_parquet(path).assign(**{col: values}).to_parquet(path, index=False)
+    with pytest.raises(UserError, match=rf"variant manifest {path} (column {col} holds values|row 0 \(id\))") as err:
+        export_data(data, tmp_path / "exp", "coco", variant="bg", progress=False)
+    assert "\n" not in str(err.value)
