@@ -144,3 +144,18 @@ def test_shown_values_are_short():
     assert shown("x" * 10**6).endswith("...") and len(shown("x" * 10**6)) == 80
     assert len(shown([[["lol"] * 1000] * 1000] * 1000)) <= 80
     assert shown(10**5000) == "a number too long to show" and shown([1, 2]) == "[1, 2]"
+
+
+def test_a_key_given_twice_is_refused_by_name(tmp_path):
+    """YAML keeps the last of two equal keys silently: `generate: {n: 4}` then `generate: {n: 8}` meant n 8."""
+    from deformsim.errors import UserError
+    from deformsim.schema import read_mapping
+
+    for text, key, line in (("generate: {n: 4}\ngenerate: {n: 8}\n", "generate", 2), ("a:\n  n: 1\n  m: 2\n  n: 3\n",
+                                                                                     "n", 4)):
+        path = tmp_path / "c.yaml"
+        path.write_text(text)
+        with pytest.raises(UserError, match=rf"not valid YAML: the key '{key}' appears twice .*line {line}"):
+            read_mapping(path, "config")
+    path.write_text("base: &b {x: 1}\nmore:\n  <<: *b\n  y: 2\n")
+    assert read_mapping(path, "config")["more"] == {"x": 1, "y": 2}  # a merge key is no repeat

@@ -171,7 +171,7 @@ class Engine:
         deformed parts."""
         import pandas as pd
 
-        from deformsim.atomic import atomic_path
+        from deformsim.atomic import atomic_path, printable
         from deformsim.dataset.real import expand_images
         from deformsim.outputs import check_file_target
 
@@ -203,7 +203,7 @@ class Engine:
             prediction = _target_prediction(predictor, paths)
         if csv is not None:
             with atomic_path(csv) as tmp:
-                pd.DataFrame({"path": [str(p) for p in paths], **prediction.columns}).to_csv(tmp, index=False)
+                pd.DataFrame({"path": [printable(str(p)) for p in paths], **prediction.columns}).to_csv(tmp, index=False)
         return prediction
 
     def export_onnx(self, model: str | Path, onnx: str | Path) -> Path:
@@ -232,13 +232,14 @@ class Engine:
 
     def report(self, data: str | Path, out: str | Path | None = None, real: str | Path | None = None,
                overwrite: bool = False, fewshot: str | Path | None = None) -> Path:
-        """Train and test every variant (the paper's Table II) into ``out`` (default: DATA/report), write the HTML
-        report (with the curves of ``fewshot``, a ``bench fewshot`` fewshot.json, when given); its path. A report of
-        other settings or inputs in ``out`` is refused unless ``overwrite``."""
+        """Train and test every variant (the paper's Table II) into ``out`` (default: DATA-report beside the dataset,
+        never inside it), write the HTML report (with the curves of ``fewshot``, a ``bench fewshot`` fewshot.json,
+        when given); its path. A report of other settings or inputs in ``out`` is refused unless ``overwrite``."""
         from deformsim.outputs import check_folder_target
         from deformsim.report.stage import make_report
 
-        out = check_folder_target(out if out is not None else Path(data) / "report", "--out")
+        where = Path(data).resolve()
+        out = check_folder_target(out if out is not None else where.parent / f"{where.name}-report", "--out")
         self._check_real(real)
         return make_report(Path(data), self.config.train, out, real=_path(real), overwrite=overwrite,
                            progress=self.progress, fewshot=_path(fewshot))

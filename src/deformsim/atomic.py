@@ -31,8 +31,17 @@ def write_bytes(path: str | Path, data: bytes) -> None:
         tmp.write_bytes(data)
 
 
+def printable(text: str) -> str:
+    """``text`` as valid UTF-8: the bytes of a file name that are not UTF-8 (Python holds them as surrogates) written
+    as ``\\xNN``, the way a user sees them in ``ls -b`` (any other lone surrogate as ``\\uNNNN``)."""
+    try:
+        return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:
+        return text.encode("utf-8", "backslashreplace").decode()
+
+
 def write_text(path: str | Path, text: str) -> None:
-    write_bytes(path, text.encode())
+    write_bytes(path, printable(text).encode())
 
 
 def write_json(path: str | Path, obj) -> None:

@@ -33,6 +33,8 @@ from deformsim.schema import (
 PRESET_DIR = Path(__file__).parent / "presets"
 MAX_IMAGES = 10_000_000  # generate.n
 CONFIRM_IMAGES = 100_000  # a plan of more images asks for --yes (deformsim.generate.refusals.check_plan)
+# a variant's name is a folder under DATA/variants/ and part of the report's model folders: a plain name
+VariantName = Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")]
 ONE_MODEL = {"ensemble": 1, "ensemble_backbones": []}  # train: what a dense target trains (TrainConfig.for_target)
 
 
@@ -516,7 +518,7 @@ class CompositeConfig(_Model):
     flip: bool = Field(True, description="mirror background photos left-right at random")
     flip_part: float = Field(0.0, ge=0, le=1, description="probability of mirroring the part (and its maps) left-right")
     workers: int = Field(0, ge=0, le=1024, description="composite processes; 0 = automatic")
-    variants: list[str] = Field(
+    variants: Annotated[list[VariantName], NonEmpty("composite.variants is empty: name at least one variant")] = Field(
         ["black", "backgrounds"], description="variants deformsim run makes: black and green are the renders; "
         "backgrounds composites onto composite.backgrounds (procedural backgrounds when it is null)"
     )
@@ -573,7 +575,7 @@ class TrainConfig(_Model):
         "prediction, so the print's and the light's colours cannot tell the classes apart"
     )
     threshold: float = Field(0.5, gt=0, lt=1, description="probability from which an image (or pixel) is deformed")
-    variants: list[str] = Field(
+    variants: Annotated[list[VariantName], NonEmpty("train.variants is empty: name at least one variant")] = Field(
         ["black", "backgrounds"], description="image variants the report trains and evaluates on; the first is "
         "deformsim train's default"
     )

@@ -52,7 +52,7 @@ def files_digest(paths: list[str | Path], root: str | Path) -> str:
     root = os.path.abspath(root)
     h = hashlib.sha256()
     for rel, path in sorted((Path(os.path.relpath(os.path.abspath(p), root)).as_posix(), p) for p in paths):
-        h.update(f"{rel}\0{file_digest(path)}\n".encode())
+        h.update(f"{rel}\0{file_digest(path)}\n".encode("utf-8", "surrogateescape"))  # a name's bytes as they are
     return h.hexdigest()
 
 

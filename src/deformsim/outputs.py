@@ -7,6 +7,8 @@ made with the same settings and inputs; otherwise it stops with one line, naming
 ``--overwrite`` is given and the folder holds that kind and nothing else: then the new output is built beside
 the old one and swapped in whole, so nothing of the old one is left. A folder holding another kind, or files but
 no recognisable output, is never replaced, and no output folder is an input of the same command or holds one.
+No output, and no file a command writes, lies inside another output (which would overwrite it, or remove it when
+replaced); an output holding another one (made so by an older deformsim) is never replaced.
 """
 
 from __future__ import annotations
@@ -60,9 +62,30 @@ def _check_writable_parent(path: Path, flag: str) -> None:
     os.unlink(probe)
 
 
+def output_above(path: str | Path) -> tuple[Path, str] | None:
+    """The nearest folder above ``path`` (symlinks followed; not ``path`` itself) that holds a deformsim output, and
+    its kind; None when there is none."""
+    for folder in Path(path).resolve().parents:
+        found = kinds_in(folder)
+        if found:
+            return folder, " and ".join(sorted(found))
+    return None
+
+
+def _check_not_inside_output(path: Path, flag: str, what: str) -> None:
+    """A :class:`UserError` when ``path`` lies inside a deformsim output: it would go when that output is replaced
+    (and a file there could overwrite one of the output's own)."""
+    owner = output_above(path)
+    if owner is not None:
+        folder, kind = owner
+        raise UserError(f"{flag} {path} lies inside the deformsim {kind} {folder}: {what} there could overwrite its "
+                        "files and goes when it is replaced: choose a path outside it")
+
+
 def check_file_target(path: str | Path, flag: str, inputs: Iterable[str | Path | None] = ()) -> Path:
-    """A file to be written: not a folder, under folders (not files), in a place where files can be created, and
-    none of the command's ``inputs`` (a model folder stands for its ``model.pt``)."""
+    """A file to be written: not a folder, under folders (not files), in a place where files can be created, none
+    of the command's ``inputs`` (a model folder stands for its ``model.pt``) and not inside a deformsim output
+    (a dataset's ``manifest.parquet``, another model's ``model.pt``)."""
     path = Path(path)
     if path.is_dir():
         raise UserError(f"{flag} {path} is a folder: give the path of a file to write")
@@ -73,16 +96,18 @@ def check_file_target(path: str | Path, flag: str, inputs: Iterable[str | Path |
         source = Path(source) / "model.pt" if Path(source).is_dir() else Path(source)
         if source.resolve() == target:
             raise UserError(f"{flag} {path} is an input of this command ({source}): choose another file")
+    _check_not_inside_output(path, flag, "a file")
     _check_writable_parent(path, flag)
     return path
 
 
 def check_folder_target(path: str | Path, flag: str, replace: bool = False) -> Path:
-    """A folder to be written: not a file, under folders (not files), where files can be created (inside it when
-    it exists; beside it too when it is to be ``replace``-d)."""
+    """A folder to be written: not a file, not inside another deformsim output, under folders (not files), where
+    files can be created (inside it when it exists; beside it too when it is to be ``replace``-d)."""
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise UserError(f"{flag} {path} is a file, not a folder: choose a folder path")
+    _check_not_inside_output(path, flag, "an output")
     if path.is_dir():
         _check_writable_parent(path / "x", flag)  # where its files go
     if replace or not path.is_dir():
@@ -113,6 +138,30 @@ def kinds_in(folder: str | Path) -> set[str]:
     if (folder / EXPORT).is_file():
         found.add("export")
     return found
+
+
+def nested_output(folder: str | Path) -> tuple[Path, str] | None:
+    """The first output inside ``folder`` (not ``folder`` itself) that a command made as one (its ``inputs.json``
+    names its kind, or an ``export.json``), and its kind; None when there is none. A report's own models are no
+    such output."""
+    folder = Path(folder)
+    for root, dirs, files in os.walk(folder):
+        dirs.sort()
+        if root == str(folder) or (INPUTS not in files and EXPORT not in files):
+            continue
+        recorded = read_inputs(Path(root))
+        kind = recorded.get("kind") if recorded is not None else None
+        if kind in KINDS or EXPORT in files:
+            return Path(root), kind if kind in KINDS else "export"
+    return None
+
+
+def check_no_nested(out: str | Path, flag: str = "--out") -> None:
+    """A :class:`UserError` when ``out``, about to be replaced whole, holds another output, which would go with it."""
+    inner = nested_output(out)
+    if inner is not None:
+        raise UserError(f"{flag} {out} holds the deformsim {inner[1]} {inner[0]}, which replacing it would remove: move "
+                        "that out first, or choose another folder")
 
 
 def _article(kind: str) -> str:
@@ -192,13 +241,14 @@ def _short(v) -> str:
 def claim(out: str | Path, kind: str, identity: dict, overwrite: bool, flag: str = "--out") -> bool:
     """May a new ``kind`` made from ``identity`` go to ``out``? Checked before any work; True when one is there.
 
-    A :class:`UserError` when ``out`` is a file, lies under a file or cannot be written; when it is a folder
-    with files but not a ``kind`` alone (:func:`check_kind`); or when it holds a ``kind`` made from something else
-    and ``overwrite`` is off.
+    A :class:`UserError` when ``out`` is a file, lies under a file or inside another output, or cannot be written;
+    when it is a folder with files but not a ``kind`` alone (:func:`check_kind`), or holds another output
+    (:func:`check_no_nested`); or when it holds a ``kind`` made from something else and ``overwrite`` is off.
     """
     out = check_folder_target(out, flag, replace=True)  # built beside it, then swapped in
     if not check_kind(out, kind, flag):
         return False
+    check_no_nested(out, flag)  # it is replaced whole, whatever is inside
     if overwrite:
         return True
     old = read_inputs(out)
@@ -276,6 +326,41 @@ def replacing(out: str | Path, identity: dict | None = None, kind: str | None = 
             shutil.rmtree(old, ignore_errors=True)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+@contextmanager
+def locked(out: str | Path, what: str, flag: str = "--out") -> Iterator[None]:
+    """Hold ``.NAME.lock`` beside ``out`` while the block runs: one writer at a time. The file names its holder's
+    pid; its lock (``flock``) ends with the holder, so a lock left by a process that died is taken over. A
+    :class:`UserError` naming the holder when a live process holds it."""
+    import fcntl
+
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    path = out.parent / f".{out.name}.lock"
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise UserError(f"{flag} {out} is being written by another deformsim {what} (process {holder}, lock "
+                            f"{path}): wait for it to end, or stop it first") from None
+        try:
+            same = os.fstat(fd).st_ino == os.stat(path).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)  # the holder removed it as we opened it: lock the new one
+    try:
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        yield
+    finally:
+        path.unlink(missing_ok=True)
+        os.close(fd)
 
 
 def os_error_line(exc: OSError) -> tuple[str, int]:

@@ -186,6 +186,7 @@ class _CountingLoader(yaml.SafeLoader):
         elif isinstance(node, yaml.SequenceNode):
             size = 1 + sum(self._sizes[id(c)] for c in node.value)
         elif isinstance(node, yaml.MappingNode):
+            _unique_keys(node)
             size = 1 + sum(self._sizes[id(k)] + self._sizes[id(v)] for k, v in node.value)
         else:
             size = 1
@@ -193,6 +194,17 @@ class _CountingLoader(yaml.SafeLoader):
             raise yaml.YAMLError(f"it expands to more than {MAX_YAML_NODES} values through its aliases")
         self._sizes[id(node)] = size
         return node
+
+
+def _unique_keys(node: yaml.MappingNode) -> None:
+    """A :class:`yaml.YAMLError` naming a key that ``node`` holds twice (YAML would keep the last one silently)."""
+    seen = set()
+    for key, _ in node.value:
+        if isinstance(key, yaml.ScalarNode) and key.tag != "tag:yaml.org,2002:merge":
+            if (key.tag, key.value) in seen:
+                raise yaml.YAMLError(f"the key {clip(key.value, 60)!r} appears twice in one mapping (line "
+                                     f"{key.start_mark.line + 1}): keep one")
+            seen.add((key.tag, key.value))
 
 
 def read_mapping(path: Path, what: str) -> dict:

@@ -38,3 +38,24 @@ def test_parse_sets_reads_yaml_values_and_refuses_bad_items():
         parse_sets(["train.epochs"])
     with pytest.raises(UserError, match="not valid YAML"):
         parse_sets(["train.epochs=["])
+
+
+def test_a_bad_set_is_refused_though_a_flag_overrides_it():
+    """`generate --resolution 32 --set render.resolution=0` ran: the flag won and the bad --set was never checked."""
+    with pytest.raises(UserError, match=r"^--set render.resolution 0: invalid render.resolution"):
+        ConfigArgs("quick", {"--resolution": ("render.resolution", 32)}, sets=["render.resolution=0"]).engine()
+    with pytest.raises(UserError, match=r"^override generate.n -4: invalid generate.n"):
+        ConfigArgs("quick", overrides={"generate.n": -4}, sets=["generate.n=8"]).engine()
+    cfg = ConfigArgs("quick", {"--resolution": ("render.resolution", 32)}, sets=["render.resolution=64"]).engine().config
+    assert cfg.render.resolution == 32  # a good one still yields to the flag
+
+
+def test_train_variants_are_plain_names_and_not_empty():
+    """`--set train.variants=[]` was an IndexError in train; a name with a folder in it became a path."""
+    with pytest.raises(UserError, match=r"^--set train.variants \[\]: .*train.variants is empty"):
+        ConfigArgs("quick", sets=["train.variants=[]"]).engine()
+    for name in ("../../x", "a/b", ".hidden", ""):
+        with pytest.raises(UserError, match="train.variants"):
+            ConfigArgs("quick", sets=[f"train.variants=['{name}']"]).engine()
+    with pytest.raises(UserError, match="composite.variants"):
+        ConfigArgs("quick", sets=["composite.variants=['../up']"]).engine()

@@ -8,6 +8,7 @@ rule. A small "generated" dataset is made from the blob images (no Blender).
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import time
 from pathlib import Path
@@ -180,3 +181,94 @@ def test_the_real_folder_rule_is_stated_and_what_was_found_is_listed(model, real
     assert res.exit_code == 0, res.output
     text = " ".join(res.output.split())
     assert "3 intact (intact/ 2, intact/unsure/ 1), 2 deformed (deformed/ 2)" in text
+
+
+def test_show_never_writes_over_its_own_dataset(dataset, tmp_path):
+    """`show DATA --out DATA/manifest.parquet` overwrote its input: the dataset was unreadable after."""
+    copy = shutil.copytree(dataset, tmp_path / "data")
+    before = _files(copy)
+    for target in (copy / "manifest.parquet", copy / "images" / "black" / "000000_c0.png", copy / "new.png"):
+        res = invoke("show", copy, "--variant", "black", "--out", target, "--count", "2")
+        assert f"lies inside the deformsim dataset {copy}" in one_line_error(res)
+    assert _files(copy) == before
+    assert invoke("show", copy, "--variant", "black", "--out", tmp_path / "sheet.png", "--count", "2").exit_code == 0
+
+
+def test_export_and_predict_never_write_into_another_output(dataset, model, real, config, tmp_path):
+    """`export --onnx` and `predict --csv` overwrote another model's model.pt or a dataset's manifest.parquet."""
+    other = tmp_path / "other"
+    assert invoke("train", dataset, "--variant", "black", "--out", other, "--config", config, *TRAIN).exit_code == 0
+    data = shutil.copytree(dataset, tmp_path / "data")
+    kept = {other: _files(other), data: _files(data), model: _files(model)}
+    for target, kind in ((other / "model.pt", "model"), (data / "manifest.parquet", "dataset"),
+                         (model / "train.json", "model"), (data / "images" / "sub" / "x.onnx", "dataset")):
+        assert f"lies inside the deformsim {kind}" in one_line_error(invoke("export", model, "--onnx", target))
+        csv = target.with_suffix(".csv") if target.suffix == ".onnx" else target
+        assert f"lies inside the deformsim {kind}" in one_line_error(invoke("predict", model, real, "--csv", csv))
+        assert "lies inside the deformsim" in one_line_error(invoke("evaluate", model, "--real", real, "-o", csv))
+    assert {k: _files(k) for k in kept} == kept
+
+
+@pytest.mark.parametrize("command", ["train", "report"])
+def test_an_output_inside_a_dataset_is_refused(dataset, config, tmp_path, command):
+    """`train DATA --out DATA/mymodel` and `report DATA --out DATA/rep` were accepted; `generate --overwrite` of
+    DATA then removed them."""
+    data = shutil.copytree(dataset, tmp_path / "data")
+    before = _files(data)
+    argv = {"train": ["train", data, "--variant", "black"], "report": ["report", data, "--variants", "black"]}[command]
+    for out in (data / "mine", data / "variants" / "x" / "mine"):
+        res = invoke(*argv, "--out", out, "--config", config, *TRAIN)
+        assert f"lies inside the deformsim dataset {data}" in one_line_error(res)
+    assert _files(data) == before
+
+
+def test_finetune_into_its_own_model_is_refused(model, real, tmp_path):
+    copy = shutil.copytree(model, tmp_path / "m")
+    before = _files(copy)
+    res = invoke("finetune", copy, "--real", real, "--out", copy / "sub", "--steps", "1", "--no-progress")
+    *notes, error = res.output.strip().splitlines()  # after the note naming the photos found
+    assert res.exit_code == 2 and all(n.startswith("real photos in") for n in notes), res.output
+    assert error.startswith("error:") and f"lies inside the deformsim model {copy}" in error
+    assert _files(copy) == before
+
+
+def test_report_by_default_goes_beside_the_dataset(dataset, config, tmp_path):
+    data = shutil.copytree(dataset, tmp_path / "data")
+    res = invoke("report", data, "--variants", "black", "--config", config, *TRAIN)
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "data-report" / "report.html").is_file() and not (data / "report").exists()
+
+
+def test_a_folder_holding_another_output_is_never_replaced(dataset, model, config, tmp_path):
+    """A model nested in a model (made by an older deformsim) went with its parent on --overwrite."""
+    outer = shutil.copytree(model, tmp_path / "m")
+    inner = shutil.copytree(model, outer / "inner")
+    before = _files(outer)
+    for extra in ([], ["--overwrite"]):
+        res = invoke("train", dataset, "--variant", "black", "--out", outer, "--config", config, *extra, *TRAIN)
+        assert f"holds the deformsim model {inner}, which replacing it would remove" in one_line_error(res)
+    assert _files(outer) == before
+
+
+def _odd_named(real: Path, tmp_path: Path) -> tuple[Path, str]:
+    """A copy of ``real`` with one photo named with a byte that is not UTF-8 (``bad\\xffname.png``)."""
+    copy = shutil.copytree(real, tmp_path / "odd")
+    photo = sorted((copy / "deformed").glob("*.png"))[0]
+    name = os.fsdecode(b"bad\xffname.png")
+    photo.rename(photo.parent / name)
+    return copy, name
+
+
+def test_a_photo_name_that_is_not_utf8_is_written_as_it_can_be(dataset, model, real, config, tmp_path):
+    """predict --csv, finetune --real and report --real stopped with UnicodeEncodeError (evaluate coped)."""
+    odd, name = _odd_named(real, tmp_path)
+    res = invoke("predict", model, odd, "--csv", tmp_path / "p.csv")
+    assert res.exit_code == 0, res.output
+    assert "bad\\xffname.png" in (tmp_path / "p.csv").read_text()
+    res = invoke("finetune", model, "--real", odd, "--out", tmp_path / "ft", "--steps", "1", "--views", "0",
+                 "--no-progress")
+    assert res.exit_code == 0, res.output
+    res = invoke("report", dataset, "--out", tmp_path / "rep", "--real", odd, "--variants", "black", "--config", config,
+                 *TRAIN)
+    assert res.exit_code == 0, res.output
+    assert "bad\\xffname.png" in (tmp_path / "rep" / "report.html").read_text()

@@ -113,3 +113,56 @@ def test_the_unadapted_curve_scores_as_evaluate_does_with_test_time_crop_and_fli
     shutil.copytree(real, tmp_path / "unique", ignore=shutil.ignore_patterns("copy.png"))  # as fewshot counts them
     expected = evaluate_model(model, real_dir=tmp_path / "unique")["metrics"]["accuracy"]
     assert results["curves"]["synthetic"][0]["accuracy"] == pytest.approx(expected)
+
+
+XSS = ("<script>alert(1)</script>", "<img src=x onerror=alert(1)>", "<svg onload=alert(1)>")
+
+
+def _shots() -> dict:
+    row = {"k": 1, "runs": 2, "interval": "draws", "accuracy": 0.7, "f1": 0.6, "accuracy_interval": [0.6, 0.8],
+           "f1_interval": [0.5, 0.7], "majority": 0.5}
+    return {"kind": "fewshot", "real_dir": "r", "model": "m", "majority_baseline": 0.5,
+            "photos": {"intact": 3, "deformed": 3}, "draws": 2, "seeds": 1, "curves": {"synthetic": [row]}}
+
+
+def test_every_value_of_the_fewshot_section_is_escaped():
+    """`photos`, `draws`, `seeds` and `k` reached report.html as they were (XSS through `report --fewshot`)."""
+    results = _shots()
+    results["photos"] = {"intact": XSS[0], "deformed": XSS[1]}
+    results["draws"], results["seeds"] = XSS[2], XSS[0]
+    results["curves"]["synthetic"][0]["k"] = XSS[1]
+    html = fewshot_section(results)
+    assert not any(x in html for x in XSS) and "&lt;svg onload=alert(1)&gt;" in html
+
+
+@pytest.mark.parametrize("where, value, said", [
+    (("photos", "intact"), XSS[0], r"photos.intact: Input should be a valid integer \(got '<script>"),
+    (("draws",), XSS[1], "draws: Input should be a valid integer"),
+    (("seeds",), XSS[2], "seeds: Input should be a valid integer"),
+    (("draws",), [1, 2], r"draws: Input should be a valid integer \(got \[1, 2\]\)"),  # was a TypeError
+    (("photos",), None, "photos: missing"),  # was a KeyError
+    (("curves", "synthetic"), [], "curves.synthetic: List should have at least 1 item"),
+    (("majority_baseline",), float("nan"), "majority_baseline: Input should be a finite number"),
+    (("real_dir",), 5, "real_dir: Input should be a valid string"),
+    (("runs",), "x" * 10, "runs: Input should be a valid array"),
+])
+def test_a_fewshot_file_off_its_schema_is_one_line_naming_the_value(tmp_path, where, value, said):
+    results = _shots()
+    node = results
+    for key in where[:-1]:
+        node = node[key]
+    if value is None:
+        del node[where[-1]]
+    else:
+        node[where[-1]] = value
+    (tmp_path / "f.json").write_text(json.dumps(results))
+    with pytest.raises(UserError, match=rf"is not a deformsim few-shot result .*: {said}") as err:
+        read_results(tmp_path / "f.json")
+    assert "\n" not in str(err.value)
+
+
+def test_a_fewshot_file_nested_deep_or_not_json_is_one_line(tmp_path):
+    for text, said in (("[" * 100_000, "nested too deeply"), ("{", "not JSON")):
+        (tmp_path / "f.json").write_text(text)
+        with pytest.raises(UserError, match=said):
+            read_results(tmp_path / "f.json")

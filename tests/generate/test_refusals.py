@@ -278,3 +278,40 @@ def test_a_dataset_is_never_written_inside_a_folder_of_photos_it_reads(monkeypat
     with pytest.raises(UserError, match="--out .*art/data is or lies inside the artwork photo folder"):
         generate(cfg, art / "data", progress=False)
     assert sorted(p.name for p in art.iterdir()) == ["a.png"]
+
+
+def test_overwrite_never_removes_an_output_kept_inside_the_dataset(monkeypatch, tmp_path):
+    """`generate --out DATA --overwrite` removed a model and a report kept in DATA (docs/identity.md: never)."""
+    use_fakes(monkeypatch)
+    out = tmp_path / "D"
+    generate(cfg_for(n=16), out, progress=False)
+    for name, kind in (("mymodel", "model"), ("rep", "report")):  # as an older deformsim let train and report make
+        (out / name).mkdir()
+        (out / name / "inputs.json").write_text(f'{{"kind": "{kind}"}}')
+    with pytest.raises(UserError, match=rf"holds the deformsim model {out / 'mymodel'}, which replacing it would "
+                                        "remove: move that out first"):
+        generate(cfg_for(n=8), out, progress=False, overwrite=True)
+    assert len(read_manifest(out)) == 16 and (out / "rep" / "inputs.json").is_file()
+
+
+def test_a_second_generate_into_one_folder_is_refused_and_a_dead_ones_lock_taken_over(monkeypatch, tmp_path):
+    """A second `generate --overwrite` into a folder another generate was writing made the first fail (sample 0 has
+    no complete record): it is refused with one line naming the first, whose lock goes with it."""
+    use_fakes(monkeypatch)
+    out = tmp_path / "D"
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time; from deformsim.outputs import locked\n"
+                               f"with locked({str(out)!r}, 'generate'):\n    print('held', flush=True); time.sleep(60)"],
+                              env={**os.environ, "PYTHONPATH": str(ROOT / "src")}, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline() == "held\n"
+        for overwrite in (False, True):
+            with pytest.raises(UserError, match=rf"--out {out} is being written by another deformsim generate "
+                                                rf"\(process {holder.pid}, lock .*\.D\.lock\)"):
+                generate(cfg_for(), out, progress=False, overwrite=overwrite)
+    finally:
+        holder.kill()
+        holder.wait()
+    lock = tmp_path / ".D.lock"
+    assert lock.read_text() == f"{holder.pid}\n"  # killed: its lock file is left, naming a dead process
+    generate(cfg_for(), out, progress=False)
+    assert len(read_manifest(out)) == 8 and sorted(p.name for p in tmp_path.iterdir()) == ["D"]

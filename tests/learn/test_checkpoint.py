@@ -84,3 +84,19 @@ def test_a_state_dict_of_another_model_names_the_file(saved, tmp_path):
     ckpt = {**saved, "config": {**saved["config"], "hidden": [64, 32]}}
     with pytest.raises(UserError, match="model.pt does not match its saved config"):
         restore(read_checkpoint(write(tmp_path, ckpt))[0], tmp_path / "model.pt")
+
+
+@pytest.mark.parametrize("name, value, needle", [
+    ("std", torch.zeros(1, 3, 1, 1), r"its input std \[0.0, 0.0, 0.0\] is not mobilenet_v2's"),
+    ("std", torch.full((1, 3, 1, 1), 1e-30), "its input std"),
+    ("mean", torch.full((1, 3, 1, 1), 9.0), "its input mean"),
+    ("features.1.conv.0.1.running_var", None, "holds a negative variance"),
+])
+def test_a_model_whose_fixed_buffers_were_changed_is_refused(saved, tmp_path, name, value, needle):
+    """A model with std = 0 predicted `nan ... intact` and exited 0."""
+    state = dict(saved["state_dict"])
+    state[name] = value if value is not None else -torch.ones_like(state[name])
+    path = write(tmp_path, {**saved, "state_dict": state})
+    with pytest.raises(UserError, match=needle) as err:
+        load(path)
+    assert str(err.value).startswith(f"{path} is not a deformsim model")

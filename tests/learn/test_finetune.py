@@ -103,3 +103,11 @@ def test_a_model_with_a_bad_adapted_on_list_is_refused(trained, tmp_path):
     torch.save(ckpt, tmp_path / "model.pt")
     with pytest.raises(UserError, match="adapted_on"):
         read_checkpoint(tmp_path / "model.pt")
+
+
+def test_a_negative_or_huge_seed_is_refused_like_generate_seed():
+    """`finetune --seed -1` was accepted where `generate.seed=-1` is refused."""
+    for seed in (-1, 2**63):
+        with pytest.raises(UserError, match=rf"^--seed {seed}: a seed is a whole number from 0 to"):
+            Recipe(seed=seed)
+    assert Recipe(seed=2**63 - 1).seed == 2**63 - 1

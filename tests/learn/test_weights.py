@@ -160,3 +160,60 @@ def test_missing_package_names_the_options(tmp_path, monkeypatch):
 def test_bad_names(backbone, weights, bad):
     with pytest.raises(ValidationError, match=bad):  # the config admits only what resolve knows
         TrainConfig(backbone=backbone, weights=weights)
+
+
+class _Runs:
+    """A pickle that would create ``ran`` when unpickled: weights_only must refuse it."""
+
+    def __init__(self, ran):
+        self.ran = str(ran)
+
+    def __reduce__(self):
+        return (open, (self.ran, "w"))
+
+
+@pytest.mark.parametrize("backbone", [name for name, bb in BACKBONES.items() if bb.download])
+def test_a_pickle_in_the_hub_cache_is_one_line_for_every_backbone(backbone, tmp_path, monkeypatch):
+    """resnet50 and convnext gave a hash error, DINOv2 an UnpicklingError traceback (no code ran)."""
+    file = W.Path(W.urlparse(W._url(BACKBONES[backbone].download)).path).name
+    ckpt = tmp_path / "hub" / "checkpoints"
+    ckpt.mkdir(parents=True)
+    torch.save({"x": _Runs(tmp_path / "ran")}, ckpt / file)
+    monkeypatch.setenv("TORCH_HOME", str(tmp_path))
+    with pytest.raises(UserError, match=rf"cached weights {ckpt / file} (are corrupt|do not load).*delete it") as err:
+        W.resolve(backbone, "imagenet")
+    assert "\n" not in str(err.value) and not (tmp_path / "ran").exists()
+
+
+@pytest.fixture
+def cached_backbone(tmp_path, monkeypatch):
+    """MobileNetV2's offline file, its conversion cached as VGG-16's is; the cache in ``tmp_path``."""
+    monkeypatch.setenv("DEFORMSIM_CACHE", str(tmp_path))
+    monkeypatch.setitem(BACKBONES, "mobilenet_v2", dataclasses.replace(BACKBONES["mobilenet_v2"], cache="mnv2-test"))
+    state, _ = W.resolve("mobilenet_v2", "offline")
+    (cached,) = (tmp_path / "weights").glob("mnv2-test-*.pt")
+    return state, cached
+
+
+def test_a_changed_converted_cache_is_converted_again(cached_backbone, caplog):
+    """A zeroed VGG-16 cache file was used as it was (every photo 0.4773, the log citing the source's sha256)."""
+    state, cached = cached_backbone
+    for change in ("zeroed", "a pickle", "no digest"):
+        if change == "zeroed":
+            torch.save({k: torch.zeros_like(v) for k, v in state.items()}, cached)
+        elif change == "a pickle":
+            torch.save({"x": _Runs(cached.parent / "ran")}, cached)
+        else:
+            W._digest_file(cached).unlink()
+        again, _ = W.resolve("mobilenet_v2", "offline")
+        assert all(torch.equal(again[k], v) for k, v in state.items()), change
+        assert "converting them again" in caplog.text
+    assert not (cached.parent / "ran").exists()
+
+
+def test_a_changed_converted_cache_without_its_source_is_one_line(cached_backbone, monkeypatch):
+    state, cached = cached_backbone
+    torch.save({k: torch.zeros_like(v) for k, v in state.items()}, cached)
+    monkeypatch.setattr(W, "_locate", lambda src: None)  # the offline package uninstalled
+    with pytest.raises(UserError, match=rf"cached weights {cached} do not match the sha256 recorded .*delete it"):
+        W.resolve("mobilenet_v2", "offline")

@@ -244,3 +244,15 @@ def test_synthetic_samples_sit_beside_real_photos_of_their_class(metrics):
         v.pop("real")
     html = write_report(m, out).read_text()
     assert "<h2>Synthetic samples</h2>" in html and ">real photos</div>" not in html
+
+
+def test_every_count_shown_is_escaped_too(metrics):
+    """Counts went into the page as they were: a metrics.json (or few-shot file) holding text there injected it."""
+    m, out = metrics
+    black = m["variants"]["black"]
+    black["n_images"] = "<script>a()</script>"
+    for e in m["variants"].values():
+        e["real"]["train"]["n"] = "<svg onload=b()>"
+    html = write_report(m, out).read_text()
+    assert "<script>" not in html and "<svg onload" not in html
+    assert "&lt;script&gt;a()&lt;/script&gt; images" in html and "&lt;svg onload=b()&gt;" in html

@@ -92,9 +92,12 @@ def fail_cleanly(fn):
 
 
 def _escape(text: str) -> str:
+    """``text`` for rich's markup, printable whatever the bytes of the names in it (:func:`deformsim.atomic.printable`)."""
     from rich.markup import escape
 
-    return escape(text)
+    from deformsim.atomic import printable
+
+    return escape(printable(text))
 
 
 @dataclass(frozen=True)
@@ -115,12 +118,19 @@ class ConfigArgs:
     def engine(self, progress: bool = True, notify: Callable[[str], None] | None = None):
         """The :class:`deformsim.api.Engine` of this config."""
         from deformsim.api import Engine
+        from deformsim.config import load_config
 
         given = {flag: (key, value) for flag, (key, value) in self.flags.items() if value is not None}
         sets = parse_sets(self.sets)
         flags = {**{key: f"--set {key}" for key in sets}, **{key: flag for flag, (key, _) in given.items()}}
-        return Engine(self.source, {**self.overrides, **sets, **dict(given.values())}, progress=progress,
-                      flags=flags, notify=notify)
+        final = {**self.overrides, **sets, **dict(given.values())}
+        # a value that another one overrides is checked too (in place of the winner): no bad value passes unseen
+        winners = {key for key, _ in given.values()}
+        shadowed = [*((k, v, f"override {k}") for k, v in self.overrides.items() if k in winners or k in sets),
+                    *((k, v, f"--set {k}") for k, v in sets.items() if k in winners)]
+        for key, value, flag in shadowed:
+            load_config(self.source, {**final, key: value}, {**flags, key: flag})
+        return Engine(self.source, final, progress=progress, flags=flags, notify=notify)
 
 
 @functools.cache

@@ -59,7 +59,7 @@ def register(app: typer.Typer) -> None:
     def report(
         data: Path = typer.Argument(..., help="generated dataset folder"),
         real: Optional[Path] = typer.Option(None, "--real", help=f"real photos for sim-to-real: {REAL_HELP}"),
-        out: Optional[Path] = typer.Option(None, "--out", "-o", help="report folder (default: DATA/report)"),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help="report folder (default: DATA-report beside the dataset)"),
         config: str = typer.Option("quick", "--config", "-c", help="YAML config file or preset name"),
         variants: Optional[str] = typer.Option(None, help=from_config("Comma-separated training variants",
                                                                       "train.variants")),

@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 from rich.table import Table
 
+from deformsim.atomic import printable
 from deformsim.cli.common import ConfigArgs, console, err_console, fail_cleanly, from_config, plain_engine, set_option
 from deformsim.learn.backbones import BACKBONES
 
@@ -74,7 +75,7 @@ def predict(
     if prediction.prior is not None:
         err_console.print(f"adapted to these {len(prediction.paths)} images: an estimated {prediction.prior:.0%} of "
                           "them deformed", highlight=False, soft_wrap=True)
-    rows = [[str(p), *(v[i] if isinstance(v[i], str) else f"{v[i]:.4f}" for v in prediction.columns.values())]
+    rows = [[printable(str(p)), *(v[i] if isinstance(v[i], str) else f"{v[i]:.4f}" for v in prediction.columns.values())]
             for i, p in enumerate(prediction.paths)]
     if console.is_terminal:
         table = Table("image", *prediction.headings)

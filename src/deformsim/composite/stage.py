@@ -46,6 +46,7 @@ from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inr
 from deformsim.config import CompositeConfig
 from deformsim.dataset.layout import RENDER_KINDS, SHADOW_KIND, SURFACE_KIND, Layout, image_id
 from deformsim.dataset.manifest import read_manifest
+from deformsim.dataset.paths import dataset_file
 from deformsim.dataset.variants import VARIANT_MANIFEST
 from deformsim.errors import UserError
 from deformsim.log import progress_bar
@@ -155,19 +156,22 @@ def _jobs(layout: Layout, manifest: pd.DataFrame, source: str, shadows: bool = F
                         "render.surface: render it with render.surface, or set composite.surface to 0")
     dense = "mask" in manifest.columns
     jobs = []
-    for row in manifest.itertuples(index=False):
-        src = layout.root / getattr(row, source)
+    for i, row in enumerate(manifest.itertuples(index=False)):
+        def file(col: str, row=row, i=i) -> Path:
+            return dataset_file(layout.root, getattr(row, col), f"manifest row {i} ({col})")
+
+        src = file(source)
         if not src.is_file():
             raise UserError(f"image missing: {src} (is the dataset at {layout.root} complete?)")
-        exact = layout.root / row.rgba if "rgba" in manifest.columns else None
-        maps = {k: layout.root / getattr(row, k) for k in MAP_KINDS} if dense else None
+        exact = file("rgba") if "rgba" in manifest.columns else None
+        maps = {k: file(k) for k in MAP_KINDS} if dense else None
         for path in (maps or {}).values():
             if not path.is_file():
                 raise UserError(f"dense map missing: {path} (is the dataset at {layout.root} complete?)")
-        shadow = layout.root / getattr(row, SHADOW_KIND) if shadows and SHADOW_KIND in manifest.columns else None
+        shadow = file(SHADOW_KIND) if shadows and SHADOW_KIND in manifest.columns else None
         if shadow is not None and not shadow.is_file():
             raise UserError(f"shadow map missing: {shadow} (is the dataset at {layout.root} complete?)")
-        scene = layout.root / getattr(row, SURFACE_KIND) if surfaces else None
+        scene = file(SURFACE_KIND) if surfaces else None
         if scene is not None and not (scene.is_file() and exact is not None and exact.is_file()):
             raise UserError(f"surface scene or its rgba render missing: {scene} (is the dataset at {layout.root} "
                             "complete?)")

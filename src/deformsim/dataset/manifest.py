@@ -14,12 +14,18 @@ import pandas as pd
 
 from deformsim.atomic import atomic_path, write_json
 from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
+from deformsim.dataset.paths import file_stem
 from deformsim.dataset.rendered import Rendered
 from deformsim.errors import UserError
 from deformsim.sampling import SampleParams
+from deformsim.schema import shown
 
 # Columns that measure the run rather than describe the data: excluded when comparing manifests.
 VOLATILE_COLUMNS = ("render_seconds",)
+LABELS = ("intact", "deformed")  # by y
+# columns that deformsim reads as numbers (grouping, labels, severities, the masks' boxes)
+NUMERIC = ("sample", "camera", "y", "seed", "pair", "extent", "max_disp_mm", "visible_disp_mm", "region_fraction",
+           "bbox_x0", "bbox_y0", "bbox_x1", "bbox_y1")
 
 
 def rows_for(p: SampleParams, layout: Layout, rendered: Rendered, camera_scale: float = 1.0) -> list[dict]:
@@ -155,7 +161,34 @@ def read_manifest(root: str | Path) -> pd.DataFrame:
     df = read_parquet(layout.manifest, "manifest", fix)
     if "y" in df.columns and not df["y"].isin([0, 1]).all():
         raise UserError(f"manifest {layout.manifest} has labels y other than 0 (intact) and 1 (deformed): {fix}")
+    check_columns(df, f"manifest {layout.manifest}", fix)
     return df
+
+
+def check_columns(df: pd.DataFrame, what: str, fix: str) -> None:
+    """A :class:`UserError` naming ``what`` (and the row) unless every column holds single values (text or numbers,
+    no lists), the columns read as numbers (:data:`NUMERIC`) numbers, every ``id`` a plain file name
+    (:func:`~deformsim.dataset.paths.file_stem`: it names the image's files) seen once, and every ``label`` intact
+    or deformed, as its ``y`` says."""
+    for col in df.columns:
+        if df[col].dtype == object and not all(v is None or isinstance(v, str) for v in df[col]):
+            raise UserError(f"{what} column {shown(col, 60)} holds values that are neither text nor numbers: {fix}")
+        if col in NUMERIC and not (pd.api.types.is_numeric_dtype(df[col]) and not pd.api.types.is_bool_dtype(df[col])):
+            raise UserError(f"{what} column {col} holds {df[col].dtype} values where numbers belong: {fix}")
+    if "id" in df.columns:
+        for i, iid in enumerate(df["id"]):
+            file_stem(iid, f"{what} row {i} (id)")
+        repeated = df["id"][df["id"].duplicated()]
+        if len(repeated):
+            raise UserError(f"{what} has the id {shown(repeated.iloc[0], 80)!r} more than once: {fix}")
+    if "label" in df.columns:
+        ys = df["y"] if "y" in df.columns else [None] * len(df)
+        for i, (label, y) in enumerate(zip(df["label"], ys)):
+            if not (isinstance(label, str) and label in LABELS):
+                shown_label = repr(shown(label, 80)) if isinstance(label, str) else shown(label, 80)
+                raise UserError(f"{what} row {i} (label): {shown_label} is not a class: intact or deformed")
+            if y is not None and LABELS.index(label) != y:
+                raise UserError(f"{what} row {i}: label {label!r} but y {y}: {fix}")
 
 
 def read_parquet(path: Path, what: str, fix: str = "") -> pd.DataFrame:

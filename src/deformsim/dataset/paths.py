@@ -3,7 +3,8 @@
 A manifest row naming ``/etc/hostname``, ``../x`` or a symlink that leads out of the dataset is refused with one
 line naming the row and the file, and so is one that is not a regular file or, for an image, does not open as one.
 This is the one place for that check, meant for every reader of a dataset's files: :func:`dataset_file` (or
-:func:`dataset_files` for a table's column) and :func:`check_image`.
+:func:`dataset_files` for a table's column) and :func:`check_image`. A value that becomes part of a file name (an
+image's ``id``) is a plain name: :func:`file_stem`.
 """
 
 from __future__ import annotations
@@ -30,6 +31,21 @@ def dataset_file(root: str | Path, name: str | Path, what: str) -> Path:
         raise UserError(f"{what}: {shown(name, 200)} lies outside the dataset {root} (a path or symlink leading "
                         "out of it): every file a dataset names must be inside it")
     return path
+
+
+MAX_STEM = 200  # characters of a name that becomes a file name (most filesystems allow 255 bytes)
+
+
+def file_stem(value: object, what: str) -> str:
+    """``value`` when it can name a file in a folder it is joined to: non-empty text without a folder separator,
+    NUL or a ``.``/``..`` of its own, at most :data:`MAX_STEM` characters; a :class:`UserError` naming ``what``
+    otherwise (an ``id`` of ``../../x`` or ``/etc/x`` would write outside the output)."""
+    if not (isinstance(value, str) and value not in ("", ".", "..") and len(value) <= MAX_STEM
+            and not any(c in value for c in "/\\\0")):
+        raise UserError(f"{what}: {shown(value, 80)!r} is not a plain file name (no folders, '..', NUL, at most "
+                        f"{MAX_STEM} characters)" if isinstance(value, str) else f"{what}: {shown(value, 80)} is not "
+                        "text")
+    return value
 
 
 def dataset_files(root: str | Path, names: Iterable, what: Iterable[str]) -> list[str]:

@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 
 from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, Layout
-from deformsim.dataset.manifest import read_manifest, read_parquet
+from deformsim.dataset.manifest import check_columns, read_manifest, read_parquet
 from deformsim.dataset.paths import dataset_files
 from deformsim.errors import UserError
 
@@ -80,6 +80,7 @@ def _checked_variant(layout: Layout, manifest: pd.DataFrame, name: str) -> pd.Da
     missing = {"id", "image"} - set(v.columns)
     if missing:
         raise UserError(f"variant manifest {vpath} lacks column(s) {', '.join(sorted(missing))}: {_REMAKE}")
+    check_columns(v, f"variant manifest {vpath}", _REMAKE)
     if not all(isinstance(p, str) for p in v["image"]):
         raise UserError(f"variant manifest {vpath} has image paths that are not text: {_REMAKE}")
     ids, own = set(manifest["id"].astype(str)), set(v["id"].astype(str))

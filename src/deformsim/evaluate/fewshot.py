@@ -27,13 +27,15 @@ from __future__ import annotations
 import time
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
+from pydantic import ConfigDict, Field
 
 from deformsim.atomic import write_bytes, write_json
 from deformsim.errors import UserError
 from deformsim.log import get_logger
+from deformsim.schema import StrictModel
 
 if TYPE_CHECKING:
     from deformsim.learn.finetune import Recipe
@@ -254,24 +256,87 @@ def _reset_head(net, seed: int) -> None:
                 layer.reset_parameters()
 
 
+MAX_FILE = 256 << 20  # bytes of a fewshot.json (a million runs)
+Share = Annotated[float, Field(ge=0, le=1)]
+Count = Annotated[int, Field(ge=0, le=10**9)]
+
+
+class _File(StrictModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+
+
+class CurveRow(_File):
+    """One k of a curve, as :func:`_summary` writes it."""
+
+    k: Count
+    runs: Annotated[int, Field(ge=1, le=10**9)]
+    interval: Annotated[str, Field(max_length=20)] | None = None  # what the interval resamples: photos, draws, seeds
+    majority: Share
+    accuracy: Share
+    f1: Share
+    accuracy_interval: tuple[Share, Share]
+    f1_interval: tuple[Share, Share]
+
+
+class Photos(_File):
+    intact: Count
+    deformed: Count
+
+
+class FewshotFile(_File):
+    """``bench fewshot``'s ``fewshot.json``: what the report shows typed exactly; the rest of what it records
+    may be missing (an older file) but has its type."""
+
+    kind: Literal["fewshot"]
+    real_dir: Annotated[str, Field(max_length=4096)]
+    model: Annotated[str, Field(max_length=4096)]
+    majority_baseline: Share
+    photos: Photos
+    draws: Annotated[int, Field(ge=1, le=1000)]
+    seeds: Annotated[int, Field(ge=1, le=1000)]
+    curves: Annotated[dict[Literal[CURVES], Annotated[list[CurveRow], Field(min_length=1)]], Field(min_length=1)]
+    created: str | None = None
+    backbone: str | None = None
+    weights: dict[str, str] | None = None
+    ks: list[Count] | None = None
+    capped: list[Count] | None = None
+    recipe: dict[str, object] | None = None
+    data: str | None = None
+    variant: str | None = None
+    runs: list[dict[str, object]] | None = None
+    seconds: Annotated[float, Field(ge=0)] | None = None
+
+
 def read_results(path: str | Path) -> dict:
-    """A ``fewshot.json`` checked as the report shows it; one line naming the file otherwise."""
+    """A ``fewshot.json`` checked against :class:`FewshotFile` (as the report shows it); one line naming the file and
+    its first bad value otherwise."""
     import json
 
+    from pydantic import ValidationError
+
+    from deformsim.schema import first_error, shown
+
+    refused = f"--fewshot {path} is not a deformsim few-shot result (bench fewshot's fewshot.json)"
     try:
-        results = json.loads(Path(path).read_text())
+        with open(path, "rb") as f:
+            raw = f.read(MAX_FILE + 1)
     except FileNotFoundError:
         raise UserError(f"--fewshot {path}: no such file (run deformsim bench fewshot)") from None
-    except (OSError, ValueError) as exc:
-        raise UserError(f"--fewshot {path}: not a JSON file ({exc})") from None
-    keys = ("k", "runs", "accuracy", "f1", "accuracy_interval", "f1_interval", "majority")
+    except OSError as exc:
+        raise UserError(f"--fewshot {path} cannot be read: {exc.strerror}") from None
+    if len(raw) > MAX_FILE:
+        raise UserError(f"{refused}: larger than {MAX_FILE >> 20} MiB")
     try:
-        ok = results["kind"] == "fewshot" and isinstance(results["majority_baseline"], float) and all(
-            c in CURVES and all(isinstance(row[key], (int, float, list)) for row in rows for key in keys)
-            and all(len(row[f"{m}_interval"]) == 2 for row in rows for m in ("accuracy", "f1"))
-            for c, rows in results["curves"].items())
-    except (KeyError, TypeError):
-        ok = False
-    if not ok:
-        raise UserError(f"--fewshot {path} is not a deformsim few-shot result (bench fewshot's fewshot.json)")
+        results = json.loads(raw)
+    except (ValueError, RecursionError) as exc:
+        why = "nested too deeply" if isinstance(exc, RecursionError) else "not JSON"
+        raise UserError(f"{refused}: {why}") from None
+    try:
+        FewshotFile.model_validate_json(raw)
+    except ValidationError as exc:
+        loc, msg, value = first_error(exc, results)
+        where = ".".join(map(str, loc)) or "the file"
+        got = "missing" if msg == "Field required" else f"{msg} (got {shown(value, 60)!r})" if isinstance(value, str) \
+            else f"{msg} (got {shown(value, 60)})"
+        raise UserError(f"{refused}: {where}: {got}") from None
     return results

@@ -7,15 +7,18 @@ import shutil
 from pathlib import Path
 
 from deformsim.errors import UserError
-from deformsim.outputs import check_folder_target, check_kind
+from deformsim.outputs import check_folder_target, check_kind, check_no_nested
 
 
 def claim_export(out: Path, overwrite: bool) -> Path:
     """Check ``out`` before any work: new or empty, or an earlier export (and nothing else) to be replaced with
     ``overwrite``."""
     out = check_folder_target(out, "OUT", replace=True)
-    if check_kind(out, "export", "OUT") and not overwrite:
-        raise UserError(f"OUT {out} holds an export already: pass --overwrite to replace it, or choose another folder")
+    if check_kind(out, "export", "OUT"):
+        if not overwrite:
+            raise UserError(f"OUT {out} holds an export already: pass --overwrite to replace it, or choose another "
+                            "folder")
+        check_no_nested(out, "OUT")
     return out
 
 

@@ -34,7 +34,7 @@ from deformsim.generate.refusals import check_part, check_probe, existing_datase
 from deformsim.generate.visibility import invisible_keys
 from deformsim.hdri import drawn_hdris
 from deformsim.log import get_logger
-from deformsim.outputs import check_apart, check_folder_target, check_outside, remove_folder, sweep
+from deformsim.outputs import check_apart, check_folder_target, check_no_nested, check_outside, locked, remove_folder, sweep
 from deformsim.sampling import allowed_families, sample_params
 from deformsim.spec.model import Spec, load_spec, units_hint
 from deformsim.version import __version__
@@ -83,6 +83,7 @@ def prepare(cfg: Config, out: Path, overwrite: bool = False, spec: Spec | None =
         raise UserError(f"{out} {conflict}")
     if conflict is not None:
         check_folder_target(out, "--out", replace=True)  # it is removed as a whole
+        check_no_nested(out)
         check_apart(out, "--out", cfg.input_paths())
     size, hint = check_part_mesh(spec, cfg.object.mesh, cfg.object.spec)
     if hint:
@@ -116,6 +117,15 @@ def versions() -> dict:
 
 def generate(cfg: Config, out: str | Path, progress: bool = True,
              prepared: tuple[Spec, list[str]] | None = None, overwrite: bool = False) -> GenerateResult:
+    """:func:`_generate` while holding ``out``'s lock: a second generate into the same folder is refused with one
+    line naming the first (:func:`deformsim.outputs.locked`)."""
+    prepared = prepared or prepare(cfg, Path(out), overwrite)  # its checks before anything is made
+    with locked(out, "generate"):
+        return _generate(cfg, out, progress, prepared, overwrite)
+
+
+def _generate(cfg: Config, out: str | Path, progress: bool = True,
+              prepared: tuple[Spec, list[str]] | None = None, overwrite: bool = False) -> GenerateResult:
     """Render ``cfg.generate.n`` images into ``out`` (resuming what is there) and write the manifest.
 
     ``prepared`` is what :func:`prepare` returned for the same ``cfg`` and ``out``, when the caller already ran it.

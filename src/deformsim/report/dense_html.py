@@ -27,7 +27,7 @@ def _severity(head: dict, out_dir: Path) -> str:
     return (f'<div class="card"><h3>Severity</h3><div class="mid">{_num(m["mae_mm"])} mm</div>'
             f'<div>mean absolute error of the maximum displacement</div><div class="sub">RMSE {_num(m["rmse_mm"])} mm · '
             f'Spearman ρ {_num(m["spearman"])} · always answering the training mean: {_num(m["baseline_mae_mm"])} mm · '
-            f'{m["n"]} held-out images</div>{img}</div>')
+            f'{escape(str(m["n"]))} held-out images</div>{img}</div>')
 
 
 def _families(head: dict) -> str:
@@ -35,7 +35,7 @@ def _families(head: dict) -> str:
     rows = "".join(
         f"<tr><td>{escape(name)}</td><td>{_num(f['ap'])}</td>"
         + "".join(f"<td>{_num(_defined(f, k))}</td>" for k in ("f1", "precision", "recall"))
-        + f"<td>{f['n_positive']}</td></tr>" for name, f in m["families"].items()
+        + f"<td>{escape(str(f['n_positive']))}</td></tr>" for name, f in m["families"].items()
     )
     return ('<div class="card"><h3>Deformation families</h3><div class=scroll><table class="t2"><tr><th>family</th>'
             f"<th>AP</th><th>F1</th><th>Prec.</th><th>Recall</th><th>test images with it</th></tr>{rows}<tr><td><b>macro</b></td>"
@@ -72,8 +72,8 @@ def dense_section(metrics: dict, out_dir: Path) -> str:
         return f"{title}<p class=note>Not run on <b>{escape(dense['variant'])}</b>: {escape(dense['skipped'])}</p>"
     heads = dense["heads"]
     seconds = " · ".join(f"{escape(t)} {h['train_seconds']:.1f} s" for t, h in heads.items())
-    intro = (f"<p class=note>Heads on the frozen backbone, trained on {dense['n_train']} images of the "
-             f"<b>{escape(dense['variant'])}</b> variant and measured on the {dense['n_test']} held out by the same "
+    intro = (f"<p class=note>Heads on the frozen backbone, trained on {escape(str(dense['n_train']))} images of the "
+             f"<b>{escape(dense['variant'])}</b> variant and measured on the {escape(str(dense['n_test']))} held out by the same "
              f"split as the synthetic test above (synthetic data). Training time (cached features): {seconds}; "
              f"{dense['seconds']:.1f} s in all.</p>")
     parts = [_severity(heads["severity"], out_dir) if "severity" in heads else "",

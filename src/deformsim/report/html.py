@@ -150,8 +150,8 @@ def _hero(metrics: dict) -> str:
     cards = [
         f'<div class="card"><div class="big {verdict}">{_pct(m["accuracy"])}</div><div>{what}</div>'
         f'<div class="sub">{ci}</div>'
-        f'<div class="sub">model trained on {r["train"]["n"]} synthetic <b>{escape(v)}</b> images, '
-        f'tested on {m["n"]} {"real photographs" if part == "real" else "held-out images"}</div></div>'
+        f'<div class="sub">model trained on {escape(str(r["train"]["n"]))} synthetic <b>{escape(v)}</b> images, '
+        f'tested on {escape(str(m["n"]))} {"real photographs" if part == "real" else "held-out images"}</div></div>'
     ]
     f1_iv = _interval(m, "f1")
     cards.append(
@@ -204,7 +204,8 @@ def _table2(metrics: dict) -> str:
                 shade = f' style="background:{_shade(x)}"' if x is not None else ""
                 ci = _span(_interval(r["metrics"], k))
                 cells.append(f'<td class="{cls}"{shade}>{_pct(x)}{f"<span class=ci>{ci}</span>" if ci else ""}</td>')
-        rows.append(f"<tr><td><b>{escape(v)}</b><div class=sub>{e['n_images']} images</div></td>{''.join(cells)}</tr>")
+        rows.append(f"<tr><td><b>{escape(v)}</b><div class=sub>{escape(str(e['n_images']))} images</div></td>"
+                    f"{''.join(cells)}</tr>")
     return (f'<div class=scroll><table class="t2"><tr><th rowspan="2">Training variant</th>{head}</tr><tr>{sub}</tr>'
             f'{"".join(rows)}</table></div><p class=note>Under accuracy and F1: the 95 % interval (Wilson; bootstrap '
             "over the images). Bold: a value whose interval lies wholly above every other variant's; none is bold "
@@ -220,7 +221,7 @@ def _confusion(title: str, cm: list[list[int]]) -> str:
             frac = n / total
             hue = 145 if i == j else 4
             tds.append(f'<td style="background:hsl({hue},55%,{96 - 40 * frac:.0f}%)" '
-                       f'title="{n} of {sum(row)} true {CLASSES[i]}">{n}</td>')
+                       f'title="{escape(str(n))} of {escape(str(sum(row)))} true {CLASSES[i]}">{escape(str(n))}</td>')
         body.append(f"<tr><th>true {CLASSES[i]}</th>{''.join(tds)}</tr>")
     pred = "".join(f"<th>pred. {c}</th>" for c in CLASSES)
     return (f'<div class="cm"><div class="title">{escape(title)}</div><table>'

@@ -35,7 +35,7 @@ def wrong_table(wrong: list[dict], counts: bool = False) -> str:
         uri = thumbnail_uri(p["path"], 64)
         img = f'<img src="{uri}" alt="">' if uri else '<div class="missing" style="width:64px;height:64px">?</div>'
         link = photo_link(p["path"])
-        count = f'<td>{p["wrong"]} of {p["runs"]}</td>' if counts else ""
+        count = f'<td>{escape(str(p["wrong"]))} of {escape(str(p["runs"]))}</td>' if counts else ""
         rows.append(f'<tr><td><a href="{link}">{img}</a></td><td class=name><a href="{link}">{escape(Path(p["path"]).name)}</a>'
                     f'</td><td>{CLASSES[p["y"]]}</td>{count}<td>{p["prob"]:.3f}</td></tr>')
     head = "<th>wrong in runs</th><th>mean P(deformed)</th>" if counts else "<th>P(deformed)</th>"

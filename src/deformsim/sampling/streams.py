@@ -51,4 +51,4 @@ def stream(name: str, seed: int, *keys: int) -> np.random.Generator:
 
 def stable_int(iid: str) -> int:
     """A process-independent 64-bit integer for an image id (unlike ``hash``): the key of its streams."""
-    return int.from_bytes(hashlib.blake2b(iid.encode(), digest_size=8).digest(), "little")
+    return int.from_bytes(hashlib.blake2b(iid.encode("utf-8", "surrogateescape"), digest_size=8).digest(), "little")
