@@ -163,7 +163,8 @@ def fewshot(
 
 
 def adapt(
-    model: Path = typer.Argument(..., help="trained model folder (from deformsim train) or its model.pt"),
+    models: list[Path] = typer.Argument(..., help="trained model folders (from deformsim train) or their model.pt, "
+                                        "e.g. one per render draw: pooled"),
     real: Path = typer.Option(..., "--real", help="labelled real photos (intact/ and deformed/): adapted on with "
                               "their labels unread, scored with them"),
     out: Path = typer.Option(Path("runs/adapt"), "--out", "-o", help="folder for adapt.json"),
@@ -175,11 +176,12 @@ def adapt(
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:
     """Adapt a model to real photos without their labels, transductive (adapted on the photos it is scored on) and
-    inductive (on the other folds); print each method's metrics and paired difference to the unadapted model."""
+    inductive (on the other folds); print each method's metrics (mean ± std over the models) and paired difference
+    to the unadapted models."""
     from deformsim.cli.summary import adaptation_summary
     from deformsim.evaluate.adaptation import run_adaptation
 
-    result = run_adaptation(model, real, out, tuple(m.strip() for m in methods.split(",") if m.strip()), folds,
+    result = run_adaptation(models, real, out, tuple(m.strip() for m in methods.split(",") if m.strip()), folds,
                             seed=seed, progress=progress)
     adaptation_summary(result)
     console.print(f"results: {out / 'adapt.json'}", highlight=False, soft_wrap=True)

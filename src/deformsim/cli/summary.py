@@ -143,17 +143,21 @@ def fewshot_summary(results: dict, plot: Path) -> None:
 
 
 def adaptation_summary(results: dict) -> None:
-    """Print the adaptation benchmark's rows: metrics and the paired difference in accuracy to the unadapted model."""
-    table = Table(title=f"Adapted to {results['photos']} unlabelled photos (labels read only to score)",
-                  header_style="bold")
+    """Print the adaptation benchmark's rows: mean ± std over the models, and the paired difference in accuracy to
+    the unadapted model."""
+    table = Table(title=f"{len(results['models'])} model(s) adapted to {results['photos']} unlabelled photos "
+                  "(labels read only to score)", header_style="bold")
     for col in ("model", "accuracy", "F1", "AUC", "accuracy vs unadapted (95 % interval)", "estimated deformed"):
         table.add_column(col, justify="left" if col == "model" else "right")
+
+    def spread(row, key):
+        return "-" if row[key] is None else f"{row[key]:.3f} ± {row[f'{key}_std']:.3f}"
+
     for name, row in results["rows"].items():
-        m, paired = row["metrics"], row.get("paired", {}).get("accuracy")
+        paired = row.get("paired", {}).get("accuracy")
         diff = "" if paired is None else (f"{100 * paired['diff']:+.1f} ({100 * paired['low']:+.1f} to "
                                           f"{100 * paired['high']:+.1f})")
-        prior = ", ".join(f"{v:.0%}" for v in row.get("prior", []))
-        auc = "-" if m["auc"] is None else f"{m['auc']:.3f}"
-        table.add_row(escape(name), f"{m['accuracy']:.3f}", f"{m['f1']:.3f}", auc, diff, prior)
+        prior = ", ".join(f"{v:.0%}" for priors in row.get("prior", []) for v in priors)
+        table.add_row(escape(name), spread(row, "accuracy"), spread(row, "f1"), spread(row, "auc"), diff, prior)
     print_table(table, None)
     console.print(f"true share deformed {results['true_share']:.0%}", highlight=False)

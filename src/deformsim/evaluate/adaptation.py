@@ -7,8 +7,9 @@ Two protocols, both reading the folder's labels for scoring only:
 - ``inductive``: the photos split into ``folds`` by content (a seeded permutation of their sha256-ordered list, copies
   counted once); each fold scored by the model adapted on the other folds, so no photo is scored by a model that saw it.
 
-Per method and protocol: accuracy, F1, precision, recall and AUC, and each one's paired difference to the unadapted
-model with a 95 % bootstrap interval over the photos (:func:`deformsim.evaluate.paired._interval`).
+Several models (one per render draw, say) are pooled: per method and protocol, accuracy, F1 and AUC as mean and
+standard deviation over the models, and the paired difference of each metric to the unadapted models with a 95 %
+bootstrap interval over the models and the photos (:func:`deformsim.evaluate.paired._interval`).
 """
 
 from __future__ import annotations
@@ -33,11 +34,39 @@ def _folds(n: int, folds: int, seed: int) -> np.ndarray:
     return np.random.default_rng(seed).permutation(n) % folds
 
 
-def run_adaptation(model: Path, real: Path, out: Path, methods: tuple[str, ...] = METHODS, folds: int = 2,
-                   recipe: AdaptRecipe = AdaptRecipe(), seed: int = 0, progress: bool = True) -> dict:
-    """Every method under both protocols on the labelled photos of ``real``; written to ``out/adapt.json``."""
-    from deformsim.evaluate.fewshot import _table
+def _adapted(p0: np.ndarray, features: np.ndarray | None, fold: np.ndarray, recipe: AdaptRecipe,
+             protocol: str) -> tuple[np.ndarray, list[float]]:
+    """The photos' adapted probabilities under ``protocol`` and the priors estimated on the way."""
+    if protocol == "transductive":
+        adapter = fit_adapter(p0, features, recipe)
+        return adapter.apply(p0, features), [adapter.prior]
+    p, priors = np.empty(len(p0)), []
+    for f in np.unique(fold):
+        test, train = fold == f, fold != f
+        adapter = fit_adapter(p0[train], None if features is None else features[train], recipe)
+        p[test] = adapter.apply(p0[test], None if features is None else features[test])
+        priors.append(adapter.prior)
+    return p, priors
+
+
+def _row(y: np.ndarray, probs: np.ndarray, threshold: float) -> dict:
+    """Metrics of each model's predictions (rows of ``probs``) and their mean and standard deviation."""
     from deformsim.evaluate.metrics import compute_metrics
+
+    each = [compute_metrics(y, p, threshold) for p in probs]
+    row = {"models": each}
+    for key in ("accuracy", "f1", "auc"):
+        values = [m[key] for m in each if m[key] is not None]
+        row[key] = float(np.mean(values)) if values else None
+        row[f"{key}_std"] = float(np.std(values)) if values else None
+    return row
+
+
+def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str, ...] = METHODS, folds: int = 2,
+                   recipe: AdaptRecipe = AdaptRecipe(), seed: int = 0, progress: bool = True) -> dict:
+    """Every method under both protocols on the labelled photos of ``real``, for each of ``models`` (e.g. one per
+    render draw), pooled; written to ``out/adapt.json``."""
+    from deformsim.evaluate.fewshot import _table
     from deformsim.evaluate.paired import _interval
     from deformsim.learn.adapt_stage import check_adaptable
     from deformsim.learn.predict import load
@@ -45,45 +74,41 @@ def run_adaptation(model: Path, real: Path, out: Path, methods: tuple[str, ...] 
 
     start = time.perf_counter()
     out = check_folder_target(out, "--out")
-    for method in methods:
-        replace(recipe, method=method)  # one line for an unknown method, before any work
+    recipes = {method: replace(recipe, method=method) for method in methods}  # one line for an unknown method
     if not 2 <= folds <= 20:
         raise UserError(f"--folds must lie in [2, 20], got {folds}")
     table = _table(real).sort_values("digest").reset_index(drop=True)
     if len(table) < folds * MIN_PHOTOS:
         raise UserError(f"{real} holds {len(table)} distinct photos: {folds} folds of at least {MIN_PHOTOS} needs "
                         f"{folds * MIN_PHOTOS}")
-    predictor = load(model, progress)
-    check_adaptable(predictor)
+    predictors = [load(m, progress) for m in models]
+    for predictor in predictors:
+        check_adaptable(predictor)
     paths, y = list(table["path"]), table["y"].to_numpy()
-    threshold = predictor.cfg.threshold
-    p0 = predictor.synthetic_outputs(paths)
-    features = predictor.adapter_features(paths) if "probe" in methods else None
+    threshold = predictors[0].cfg.threshold
     fold = _folds(len(paths), folds, seed)
+    base, adapted, priors = [], {}, {}
+    for predictor in predictors:
+        p0 = predictor.synthetic_outputs(paths)
+        features = predictor.adapter_features(paths) if any("probe" in m for m in methods) else None
+        base.append(p0)
+        for method, r in recipes.items():
+            for protocol in PROTOCOLS:
+                p, prior = _adapted(p0, features, fold, r, protocol)
+                adapted.setdefault(f"{method} {protocol}", []).append(p)
+                priors.setdefault(f"{method} {protocol}", []).append(prior)
+    base = np.array(base)
     rng = np.random.default_rng(seed)
-    rows = {"unadapted": {"metrics": compute_metrics(y, p0, threshold), "predictions": p0.tolist()}}
-    for method in methods:
-        r = replace(recipe, method=method)
-        for protocol in PROTOCOLS:
-            if protocol == "transductive":
-                adapter = fit_adapter(p0, features, r)
-                p = adapter.apply(p0, features)
-                prior = [adapter.prior]
-            else:
-                p, prior = np.empty(len(paths)), []
-                for f in range(folds):
-                    test, train = fold == f, fold != f
-                    adapter = fit_adapter(p0[train], None if features is None else features[train], r)
-                    p[test] = adapter.apply(p0[test], None if features is None else features[test])
-                    prior.append(adapter.prior)
-            paired = _interval(p[None], p0[None], y, threshold, rng)
-            rows[f"{method} {protocol}"] = {"metrics": compute_metrics(y, p, threshold), "paired": paired,
-                                            "prior": prior, "predictions": p.tolist()}
-            log.info("%s %s: accuracy %.3f (%+.1f points, %+.1f to %+.1f)", method, protocol,
-                     rows[f"{method} {protocol}"]["metrics"]["accuracy"], 100 * paired["accuracy"]["diff"],
-                     100 * paired["accuracy"]["low"], 100 * paired["accuracy"]["high"])
-    result = {"model": str(model), "real": str(real), "photos": len(paths), "folds": folds, "seed": seed,
-              "recipe": asdict(recipe), "true_share": float(y.mean()), "labels": y.tolist(),
+    rows = {"unadapted": {**_row(y, base, threshold), "predictions": base.tolist()}}
+    for name, probs in adapted.items():
+        probs = np.array(probs)
+        rows[name] = {**_row(y, probs, threshold), "paired": _interval(probs, base, y, threshold, rng),
+                      "prior": priors[name], "predictions": probs.tolist()}
+        acc = rows[name]["paired"]["accuracy"]
+        log.info("%s: accuracy %.3f (%+.1f points, %+.1f to %+.1f)", name, rows[name]["accuracy"], 100 * acc["diff"],
+                 100 * acc["low"], 100 * acc["high"])
+    result = {"models": [str(m) for m in models], "real": str(real), "photos": len(paths), "folds": folds,
+              "seed": seed, "recipe": asdict(recipe), "true_share": float(y.mean()), "labels": y.tolist(),
               "paths": [str(p) for p in paths], "rows": rows, "seconds": time.perf_counter() - start}
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "adapt.json", result)
