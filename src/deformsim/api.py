@@ -44,11 +44,19 @@ class SpecCheck:
 
 @dataclass(frozen=True)
 class Prediction:
-    """A model's output per image: columns (CSV name -> one value per image) and their table headings."""
+    """A model's output per image: columns (CSV name -> one value per image), their table headings and, for a label
+    model, the P(deformed) threshold of its labels."""
 
     paths: list[Path]
     columns: dict[str, Sequence]
     headings: tuple[str, ...]
+    threshold: float | None = None
+
+    def frame(self):
+        """The prediction as a pandas DataFrame: a ``path`` column, then the columns."""
+        import pandas as pd
+
+        return pd.DataFrame({"path": [str(p) for p in self.paths], **self.columns})
 
 
 def _path(p: str | Path | None) -> Path | None:
@@ -146,28 +154,34 @@ class Engine:
         return finetune(Path(model), Path(real), Path(out), recipe or Recipe(), _path(data), variant,
                         overwrite=overwrite, progress=self.progress)
 
-    def predict(self, model: str | Path, images: Sequence[str | Path], csv: str | Path | None = None) -> Prediction:
-        """P(deformed) and the label of each image (files, or folders searched recursively), or what a model of
-        another ``train.target`` predicts; also written to ``csv`` (columns path, then the prediction's)."""
-        import pandas as pd
-
+    def predict(self, model: str | Path, images: Sequence[str | Path], csv: str | Path | None = None,
+                threshold: float | None = None) -> Prediction:
+        """P(deformed) and the label of each image (files, or folders searched recursively) at ``threshold``
+        (default: the model's own), or what a model of another ``train.target`` predicts; also written to ``csv``
+        (columns path, then the prediction's)."""
         from deformsim.atomic import atomic_path
         from deformsim.dataset.real import expand_images
+        from deformsim.errors import UserError
         from deformsim.learn.predict import load
         from deformsim.outputs import check_file_target
 
         paths = expand_images(list(images))
         if csv is not None:
             check_file_target(csv, "--csv", [model, *paths])
+        if threshold is not None and not 0 < threshold < 1:
+            raise UserError(f"--threshold must lie in (0, 1), got {threshold:g}")
         predictor = load(model)
+        if threshold is not None and predictor.target != "label":
+            raise UserError(f"--threshold applies to a model of train.target label; {model} predicts {predictor.target}")
         if predictor.target == "label":
-            proba, labels = predictor.predict(paths)
-            prediction = Prediction(paths, {"p_deformed": proba, "label": labels}, ("P(deformed)", "label"))
+            proba, labels = predictor.predict(paths, threshold)
+            cut = predictor.cfg.threshold if threshold is None else threshold
+            prediction = Prediction(paths, {"p_deformed": proba, "label": labels}, ("P(deformed)", "label"), cut)
         else:
             prediction = _target_prediction(predictor, paths)
         if csv is not None:
             with atomic_path(csv) as tmp:
-                pd.DataFrame({"path": [str(p) for p in paths], **prediction.columns}).to_csv(tmp, index=False)
+                prediction.frame().to_csv(tmp, index=False)
         return prediction
 
     def export_onnx(self, model: str | Path, onnx: str | Path) -> Path:

@@ -122,7 +122,7 @@ def test_imagenet_prefers_torch_hub_cache(tmp_path, monkeypatch):
     shutil.copy(W._locate(MOBILENET), ckpt / "mobilenet_v2-b0353104.pth")
     monkeypatch.setenv("TORCH_HOME", str(tmp_path))
     state, desc = W.resolve("mobilenet_v2", "imagenet")
-    assert desc == "torchvision mobilenet_v2-b0353104.pth"
+    assert desc == "mobilenet_v2 ImageNet weights: torchvision mobilenet_v2-b0353104.pth"
     assert state["0.0.weight"].shape == (32, 3, 3, 3)
 
 

@@ -20,8 +20,22 @@ from deformsim.errors import UserError
 __all__ = ["REAL_HELP", "ConfigArgs", "console", "err_console", "fail_cleanly", "from_config", "note", "parse_sets",
            "plain_engine", "set_option"]
 
-console = Console()
-err_console = Console(stderr=True)
+
+
+class _Console(Console):
+    """A console whose lines wrap only on a terminal: into a file or pipe each printed line stays one line."""
+
+    @property
+    def soft_wrap(self) -> bool:
+        return self._soft_wrap or not self.is_terminal
+
+    @soft_wrap.setter
+    def soft_wrap(self, value: bool) -> None:
+        self._soft_wrap = value
+
+
+console = _Console()
+err_console = _Console(stderr=True)
 
 RESUME = "only complete files were kept; rerun the same command to resume"
 

@@ -7,6 +7,7 @@ from typing import Optional
 
 import typer
 
+from deformsim.cli.choices import config_choices
 from deformsim.cli.common import ConfigArgs, console, fail_cleanly, from_config, set_option
 
 
@@ -18,10 +19,12 @@ def generate(
     samples: Optional[int] = typer.Option(None, help=from_config("Cycles samples per pixel", "render.samples")),
     seed: Optional[int] = typer.Option(None, help=from_config("Seed fixing every random choice", "generate.seed")),
     workers: Optional[int] = typer.Option(None, help=from_config("Render processes, 0 = automatic", "generate.workers")),
-    device: Optional[str] = typer.Option(None, help=from_config("Render device: auto, cpu or gpu", "render.device")),
+    device: Optional[str] = typer.Option(None, autocompletion=config_choices("render.device"),
+                                         help=from_config("Render device: auto, cpu or gpu", "render.device")),
     object_: Optional[Path] = typer.Option(None, "--object", help="CAD mesh instead of the built-in can"),
     spec: Optional[Path] = typer.Option(None, "--spec", help="deformation spec YAML"),
-    backend: Optional[str] = typer.Option(None, help=from_config("Where workers run: local or ray", "generate.backend")),
+    backend: Optional[str] = typer.Option(None, autocompletion=config_choices("generate.backend"),
+                                          help=from_config("Where workers run: local or ray", "generate.backend")),
     address: Optional[str] = typer.Option(None, help="Ray cluster address (HOST:PORT or auto)"),
     gather: Optional[bool] = typer.Option(None, "--gather/--no-gather",
                                           help=from_config("Ray: return images to the driver", "generate.gather")),

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import shlex
 from pathlib import Path
 from typing import Optional
 
 import typer
+from rich.markup import escape
 
 from deformsim.cli.common import REAL_HELP, ConfigArgs, console, err_console, fail_cleanly, from_config, note, set_option
 from deformsim.cli.summary import report_summary
@@ -44,9 +46,15 @@ def register(app: typer.Typer) -> None:
             "--epochs": ("train.epochs", epochs), "--seed": ("generate.seed", seed),
             "--backgrounds": ("composite.backgrounds", backgrounds),
         }, sets=set_).engine(progress, note(err_console)).run(out, real, overwrite=overwrite, yes=yes)
+        if result.seconds:
+            console.print("[bold]time per stage:[/]", highlight=False)
         for name, secs in result.seconds.items():
-            console.print(f"  {name:<24} {secs:7.1f} s")
+            console.print(f"  {name:<30} {secs:7.1f} s", highlight=False)
         if result.skipped:
-            console.print(f"  up to date, skipped: {', '.join(result.skipped)}")
+            console.print(f"  up to date, skipped: {', '.join(result.skipped)}", highlight=False)
         if result.report is not None:
             report_summary(result.report)
+        console.print(f"[bold]Results saved to[/] {escape(str(result.out))}", highlight=False)
+        if result.model is not None:
+            console.print(f"[bold]predict with its model:[/] deformsim predict {escape(shlex.quote(str(result.model)))} "
+                          "PHOTOS...", highlight=False)

@@ -16,6 +16,7 @@ from deformsim.evaluate.experiments import low_synthetic
 from deformsim.report.dense_html import dense_section
 from deformsim.report.fewshot_html import fewshot_section
 from deformsim.report.figures import curves_png, data_uri, png_file_uri, reliability_png
+from deformsim.report.headline import headline, results
 from deformsim.report.predictions import predictions_section, thumb
 from deformsim.report.settings import settings_section
 
@@ -118,24 +119,8 @@ def _shade(x: float) -> str:
     return f"hsl({int(4 + 126 * t)},60%,{92 - 8 * t:.0f}%)"
 
 
-def _results(metrics: dict) -> list[tuple[str, str, dict]]:
-    """(variant, part, result) for every experiment that ran."""
-    return [
-        (v, part, e[part]) for v, e in metrics["variants"].items() for part, _ in PARTS if "metrics" in e.get(part, {})
-    ]
-
-
-def _headline(metrics: dict) -> tuple[str, str, dict] | None:
-    ran = _results(metrics)
-    for want in ("real", "split"):
-        cands = [r for r in ran if r[1] == want]
-        if cands:
-            return max(cands, key=lambda r: r[2]["metrics"]["accuracy"])
-    return None
-
-
 def _hero(metrics: dict) -> str:
-    head = _headline(metrics)
+    head = headline(metrics)
     if head is None:
         return '<div class="card">No experiment ran (see the notes in the table).</div>'
     v, part, r = head
@@ -173,7 +158,7 @@ def _clear_best(metrics: dict) -> set[tuple[str, str, str]]:
     """(variant, part, key) of each value whose 95 % interval lies wholly above every other variant's."""
     out = set()
     for part, _ in PARTS:
-        ran = [(v, r["metrics"]) for v, p, r in _results(metrics) if p == part]
+        ran = [(v, r["metrics"]) for v, p, r in results(metrics) if p == part]
         for k in WITH_INTERVAL:
             ivs = {v: _interval(m, k) for v, m in ran}
             for v, iv in ivs.items():
@@ -227,13 +212,13 @@ def _confusion(title: str, cm: list[list[int]]) -> str:
             f"<tr><th></th>{pred}</tr>{''.join(body)}</table></div>")
 
 
-def _real_results(metrics: dict) -> list[tuple[str, dict]]:
-    return [(v, r) for v, part, r in _results(metrics) if part == "real"]
+def _realresults(metrics: dict) -> list[tuple[str, dict]]:
+    return [(v, r) for v, part, r in results(metrics) if part == "real"]
 
 
 def _calibration(metrics: dict) -> str:
     diagrams = {v: reliability([p["y"] for p in r["predictions"]], [p["prob"] for p in r["predictions"]])
-                for v, r in _real_results(metrics)}
+                for v, r in _realresults(metrics)}
     if not diagrams:
         return ""
     eces = " · ".join(f"<b>{escape(v)}</b> {d['ece']:.3f}" for v, d in diagrams.items())
@@ -247,7 +232,7 @@ def _calibration(metrics: dict) -> str:
 
 def _gradcams(metrics: dict, out_dir: Path) -> str:
     blocks = []
-    for v, r in _real_results(metrics):
+    for v, r in _realresults(metrics):
         if not r.get("gradcam"):
             continue
         thr = r["metrics"]["threshold"]
@@ -282,7 +267,7 @@ def _settings(metrics: dict) -> str:
     if metrics.get("missing_variants"):
         rows.append(("variants not in the data", ", ".join(metrics["missing_variants"])))
     rows = [(k, escape(str(val))) for k, val in rows]
-    for v, part, r in _results(metrics):
+    for v, part, r in results(metrics):
         rows.append((f"model {v} / {part}", f"<code>{escape(r['model'])}</code> · weights <b>{escape(r['weights'])}"
                      f"</b> · train {r['train_seconds']:.1f} s · predict {r['predict_seconds']:.1f} s"))
     return settings_section(metrics, rows)
@@ -291,7 +276,7 @@ def _settings(metrics: dict) -> str:
 def _samples(metrics: dict) -> str:
     """Per class, a row of real photos (when the headline test is on them) above each variant's synthetic examples
     of that class: the first look at whether the renders resemble the photos."""
-    head = _headline(metrics)
+    head = headline(metrics)
     real = head[2]["predictions"] if head and head[1] == "real" else []
     out = []
     for y, name in enumerate(CLASSES):
@@ -308,7 +293,7 @@ def render_html(metrics: dict, out_dir: Path) -> str:
     """The report page as a string."""
     cms = "".join(
         _confusion(f"{v} · {'real' if part == 'real' else 'synthetic'} test", r["metrics"]["confusion"]["matrix"])
-        for v, part, r in _results(metrics)
+        for v, part, r in results(metrics)
     )
     curves = curves_png({v: (e.get("real") or e.get("split") or {}).get("history") for v, e in metrics["variants"].items()})
     parts = [
@@ -337,7 +322,7 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         "out for validation.</p><div class='plots two'>"
         + "".join(f"<img src='{data_uri(c, 'image/png')}' alt='training curves'>" for c in curves) + "</div>"
         if curves else "",
-        predictions_section(_headline(metrics)),
+        predictions_section(headline(metrics)),
         _settings(metrics),
         "</main></body></html>",
     ]

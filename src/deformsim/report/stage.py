@@ -12,7 +12,10 @@ from pathlib import Path
 from deformsim.atomic import write_json
 from deformsim.config import TrainConfig
 from deformsim.identity import file_digest, files_digest
+from deformsim.log import get_logger
 from deformsim.outputs import check_apart, check_folder_target, check_outside, claim, replacing
+
+log = get_logger(__name__)
 
 
 def real_digest(real: Path | None) -> str | None:
@@ -20,6 +23,29 @@ def real_digest(real: Path | None) -> str | None:
     from deformsim.dataset.real import real_table
 
     return files_digest(list(real_table(real)["path"]), real) if real is not None else None
+
+
+def present_variants(data: Path, cfg: TrainConfig) -> TrainConfig:
+    """``cfg`` training the variants of dataset ``data`` it names; when some are not in ``data``, the composited
+    variants that are take their place (as ``deformsim run`` composites ``procedural`` without background photos).
+    A warning names the variants that change and those left untrained, and ``--variants``, which picks them."""
+    from deformsim.dataset.layout import RENDER_KINDS
+    from deformsim.dataset.variants import list_variants
+
+    available = list_variants(data)
+    missing = [v for v in cfg.variants if v not in available]
+    extra = [v for v in available if v not in RENDER_KINDS and v not in cfg.variants]
+    if not extra:
+        return cfg
+    if missing:
+        chosen = [v for v in cfg.variants if v in available] + extra
+        log.warning("variant%s %s not in %s: training on %s instead (--variants picks)", "s" * (len(missing) > 1),
+                    ", ".join(missing), data, ", ".join(chosen))
+        return cfg.model_copy(update={"variants": chosen})
+    log.warning("variant%s %s of %s not trained (train.variants: %s): add %s with --variants %s",
+                "s" * (len(extra) > 1), ", ".join(extra), data, ", ".join(cfg.variants),
+                "them" if len(extra) > 1 else "it", ",".join([*cfg.variants, *extra]))
+    return cfg
 
 
 def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = None, overwrite: bool = False,
@@ -42,6 +68,7 @@ def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = Non
     check_apart(out, "--out", {"dataset": data, "real photos": real, "few-shot results": fewshot})
     check_outside(out, "--out", {"real photos": real})  # its plots would be read as photos
     read_manifest(data)  # a clear error when ``data`` is not a dataset
+    cfg = present_variants(data, cfg)
     layout = Layout(data)
     manifests = [layout.manifest, *sorted((layout.root / "variants").glob(f"*/{VARIANT_MANIFEST}"))]
     identity = {"settings": cfg.model_dump(mode="json"), "inputs": {"data": files_digest(manifests, data),
