@@ -55,10 +55,10 @@ def train(
     cfg = engine.config.train
     last = result.history[-1]
     name, key = ("acc", "acc") if cfg.target == "label" else (last["metric"], "score")
-    val = "n/a" if last[f"val_{key}"] is None else f"{last[f'val_{key}']:.3f}"
-    console.print(f"weights: {result.weights}")
+    val = "" if last[f"val_{key}"] is None else f", validation {name} {last[f'val_{key}']:.3f}"
+    console.print(f"weights: {result.weights}", highlight=False)
     console.print(f"{result.images} images, {cfg.epochs} epochs in {result.seconds:.1f} s: "
-                  f"train {name} {last[key]:.3f}, validation {name} {val}")
+                  f"train {name} {last[key]:.3f}{val}", highlight=False)
     console.print(f"saved {result.model_path}")
 
 

@@ -229,9 +229,9 @@ def _log_summary(history: list[dict], cfg: TrainConfig, n_train: int, n_val: int
     last = history[-1]
     metric = last.get("metric", "accuracy")
     score, val = (last["acc"], last["val_acc"]) if cfg.target == "label" else (last["score"], last["val_score"])
-    log.info("trained %d epoch%s on %d images in %.1f s: loss %.3f, %s %.3f, validation %s %s (%d images)",
-             len(history), "" if len(history) == 1 else "s", n_train, seconds, last["loss"], metric, score, metric,
-             "-" if val is None else f"{val:.3f}", n_val)
+    checked = f", validation {metric} {val:.3f} ({n_val} images)" if val is not None and n_val else ""
+    log.info("trained %d epoch%s on %d images in %.1f s: loss %.3f, %s %.3f%s", len(history),
+             "" if len(history) == 1 else "s", n_train, seconds, last["loss"], metric, score, checked)
 
 
 def stalled(history: list[dict], y: torch.Tensor, cfg: TrainConfig) -> str | None:
