@@ -66,14 +66,20 @@ STAGE_TITLES = {"generate": "generate: render the dataset", "report": "report: t
 
 
 def _report_split(seconds: float, metrics: Path) -> dict[str, float]:
-    """The report stage's ``seconds`` as the time its models trained and the rest (testing, plots, the page), by
-    the training times in its ``metrics`` file."""
+    """The report stage's ``seconds`` as the time its models trained, its dense-label heads took (when it has them)
+    and the rest (testing, plots, the page), by the times in its ``metrics`` file."""
     try:
-        variants = json.loads(metrics.read_text())["variants"].values()
-        trained = sum(e[p]["train_seconds"] for e in variants for p in ("split", "real") if "train_seconds" in e.get(p, {}))
+        recorded = json.loads(metrics.read_text())
+        parts = [e.get(p) or {} for e in recorded["variants"].values() for p in ("split", "real")]
+        trained = sum(part["train_seconds"] for part in parts if "train_seconds" in part)
+        dense = float((recorded.get("dense") or {}).get("seconds") or 0.0)
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return {"report": seconds}
-    return {"report: training": trained, "report: testing and the page": max(0.0, seconds - trained)}
+    out = {"report: training": trained}
+    if dense:
+        out["report: dense-label heads"] = dense
+    out["report: testing, plots and the page"] = max(0.0, seconds - trained - dense)
+    return out
 
 
 def _inputs(cfg: Config, real: Path | None) -> dict[str, Path | None]:

@@ -22,7 +22,8 @@ def report(folder, accuracies: dict[str, dict[str, float]]):
             model = folder / "models" / f"{v}_{part}"
             model.mkdir(parents=True)
             (model / "model.pt").write_bytes(f"{v} {part}".encode())
-            variants[v][part] = {"metrics": {"accuracy": acc}, "model": f"models/{v}_{part}", "train_seconds": 2.5}
+            variants[v][part] = {"metrics": {"accuracy": acc}, "model": f"models/{v}_{part}/model.pt",
+                                 "train_seconds": 2.5}
     (folder / "metrics.json").write_text(json.dumps({"variants": variants}))
     return folder
 
@@ -48,7 +49,11 @@ def test_the_run_model_is_linked_not_copied_and_replaced_whole(tmp_path):
 def test_the_report_stage_time_is_split_into_training_and_the_rest(tmp_path):
     folder = report(tmp_path / "r", {"black": {"split": 0.9, "real": 0.7}})
     assert _report_split(12.0, folder / "metrics.json") == {"report: training": 5.0,
-                                                          "report: testing and the page": 7.0}
+                                                          "report: testing, plots and the page": 7.0}
+    metrics = json.loads((folder / "metrics.json").read_text())
+    (folder / "metrics.json").write_text(json.dumps({**metrics, "dense": {"seconds": 4.0}}))
+    assert _report_split(12.0, folder / "metrics.json") == {
+        "report: training": 5.0, "report: dense-label heads": 4.0, "report: testing, plots and the page": 3.0}
     assert _report_split(12.0, tmp_path / "missing.json") == {"report": 12.0}
 
 

@@ -49,7 +49,7 @@ def register(app: typer.Typer) -> None:
         if result.seconds:
             console.print("[bold]time per stage:[/]", highlight=False)
         for name, secs in result.seconds.items():
-            console.print(f"  {name:<30} {secs:7.1f} s", highlight=False)
+            console.print(f"  {name:<36} {secs:7.1f} s", highlight=False)
         if result.skipped:
             console.print(f"  up to date, skipped: {', '.join(result.skipped)}", highlight=False)
         if result.report is not None:

@@ -364,6 +364,7 @@ def _train(table: pd.DataFrame, cfg: TrainConfig, outputs: list[str], progress: 
     ensemble = None
     if len(nets) > 1 and held is not None:
         ensemble = _out_of_bag(held, len(nets), y, cfg)
-        log.info("ensemble of %d: out-of-bag accuracy %s on %d images", len(nets),
-                 "-" if ensemble["val_acc"] is None else f"{ensemble['val_acc']:.3f}", ensemble["n_val"])
+        if ensemble["val_acc"] is not None and ensemble["n_val"]:  # else every image trained a member: no score
+            log.info("ensemble of %d: out-of-bag accuracy %.3f on %d images", len(nets), ensemble["val_acc"],
+                     ensemble["n_val"])
     return _Trained(model, cfg, weights, history, splits, adapted, ensemble, held)

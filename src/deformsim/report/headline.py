@@ -60,5 +60,6 @@ def headline_model(report: str | Path) -> Path | None:
         return None
     if head is None or not isinstance(head[2].get("model"), str):
         return None
-    model = Path(report) / head[2]["model"]
+    model = Path(report) / head[2]["model"]  # the model file, or (an older report) its folder
+    model = model.parent if model.name == "model.pt" else model
     return model if (model / "model.pt").is_file() else None
