@@ -3,9 +3,6 @@
 from __future__ import annotations
 
 import json
-import logging
-
-import pytest
 
 from deformsim.config import TrainConfig
 from deformsim.pipeline import _report_split
@@ -64,24 +61,38 @@ def dataset(folder, composited):
     return folder
 
 
-@pytest.fixture
-def warnings(caplog):
-    logging.getLogger("deformsim").addHandler(caplog.handler)
-    yield caplog
-    logging.getLogger("deformsim").removeHandler(caplog.handler)
-
-
-def test_a_report_trains_the_composites_made_in_place_of_missing_variants(tmp_path, warnings):
+def test_a_report_trains_the_composites_made_in_place_of_missing_variants(tmp_path):
     data = dataset(tmp_path / "data", ["procedural"])
-    cfg = present_variants(data, TrainConfig(variants=["black", "backgrounds"]))
+    cfg, note = present_variants(data, TrainConfig(variants=["black", "backgrounds"]))
     assert cfg.variants == ["black", "procedural"]
-    assert "variant backgrounds not in" in warnings.text and "training on black, procedural instead" in warnings.text
+    assert note == f"variant backgrounds not in {data}: training on black, procedural instead (--variants picks)"
 
 
-def test_a_report_names_the_composites_it_leaves_out(tmp_path, warnings):
+def test_a_report_names_the_composites_it_leaves_out(tmp_path):
     data = dataset(tmp_path / "data", ["backgrounds", "procedural"])
     cfg = TrainConfig(variants=["black", "backgrounds"])
-    assert present_variants(data, cfg) == cfg
-    assert "variant procedural of" in warnings.text and "--variants black,backgrounds,procedural" in warnings.text
-    warnings.clear()
-    assert present_variants(dataset(tmp_path / "d2", ["backgrounds"]), cfg) == cfg and not warnings.text
+    assert present_variants(data, cfg) == (cfg, f"variant procedural of {data} not trained (train.variants: black, "
+                                                "backgrounds): add it with --variants black,backgrounds,procedural")
+    assert present_variants(dataset(tmp_path / "d2", ["backgrounds"]), cfg) == (cfg, None)
+
+
+def test_the_report_command_says_which_variants_it_trains(tmp_path, monkeypatch):
+    """After `composite` (procedural), `report` trained black alone and said nothing of procedural."""
+    from typer.testing import CliRunner
+
+    from deformsim.cli.app import app
+    from deformsim.errors import UserError
+
+    data = dataset(tmp_path / "data", ["procedural"])
+    (data / "manifest.parquet").write_bytes(b"")  # read by content only: the dataset's checks are the test's
+    monkeypatch.setattr("deformsim.dataset.manifest.read_manifest", lambda root: None)
+    trained = []
+
+    def experiments(data_root, cfg, out, **kw):
+        trained.append(cfg.variants)
+        raise UserError("stopped by the test")
+
+    monkeypatch.setattr("deformsim.evaluate.experiments.run_experiments", experiments)
+    res = CliRunner().invoke(app, ["report", str(data), "--out", str(tmp_path / "report")])
+    assert trained == [["black", "procedural"]], res.output
+    assert "training on black, procedural instead (--variants picks)" in res.stderr
