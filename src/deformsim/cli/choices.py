@@ -20,6 +20,13 @@ def completes(*values: str) -> Callable[[str], list[str]]:
     return complete
 
 
+def export_formats(incomplete: str) -> list[str]:
+    """A completion of ``export-data --format`` (the export package is imported only when asked)."""
+    from deformsim.export import FORMATS
+
+    return completes(*FORMATS)(incomplete)
+
+
 def _literal(annotation) -> tuple[str, ...]:
     """The values of the first ``Literal`` in ``annotation`` (through ``Annotated``, ``Optional``, ``list``)."""
     if typing.get_origin(annotation) is typing.Literal:
@@ -70,13 +77,17 @@ def _dataset(ctx: typer.Context) -> str | None:
 def _variants(ctx: typer.Context) -> list[str]:
     """The variants of the dataset named on the command line; the rendered ones without one."""
     from deformsim.dataset.layout import RENDER_KINDS
+
+    rendered = [k for k in RENDER_KINDS if k != "rgba"]
+    data = _dataset(ctx)
+    if not data:
+        return rendered
     from deformsim.dataset.variants import list_variants
 
-    data = _dataset(ctx)
     try:
-        return list_variants(data) if data else [k for k in RENDER_KINDS if k != "rgba"]
+        return list_variants(data)
     except OSError:  # an unreadable folder: only the rendered variants to offer
-        return [k for k in RENDER_KINDS if k != "rgba"]
+        return rendered
 
 
 def variant_choices(ctx: typer.Context, incomplete: str) -> list[str]:

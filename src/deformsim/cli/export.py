@@ -7,9 +7,8 @@ from typing import Optional
 
 import typer
 
-from deformsim.cli.choices import completes, variant_choices
+from deformsim.cli.choices import export_formats, variant_choices
 from deformsim.cli.common import console, fail_cleanly, plain_engine
-from deformsim.export import FORMATS
 
 
 def register(app: typer.Typer) -> None:
@@ -18,7 +17,7 @@ def register(app: typer.Typer) -> None:
     def export_data(
         data: Path = typer.Argument(..., help="generated dataset folder"),
         out: Path = typer.Argument(..., help="new or empty folder for the export"),
-        fmt: str = typer.Option(..., "--format", "-f", autocompletion=completes(*FORMATS),
+        fmt: str = typer.Option(..., "--format", "-f", autocompletion=export_formats,
                                 help="imagefolder (torchvision, Hugging Face), coco or anomalib"),
         variant: Optional[str] = typer.Option(
             None, "--variant", autocompletion=variant_choices,
