@@ -7,10 +7,12 @@ Blender or training), in ``DIR/tiny-report``.
 
 Loads ``REPORT_DIR/report.html`` in headless Chromium (``apt-get install -y chromium`` where ``chromium`` is
 missing) in a frame of each width (Chromium's window is never narrower than 500 px; the frame is the page's
-viewport): first with a small script that measures the page (its scroll width and height, and the elements that
-reach past the right edge outside a scrolling box), then for a screenshot of the whole page height, written as
-``DIR/report-WIDTH.png`` (default DIR: ``report-screens`` in the current folder). Exits 1 when the page is wider
-than its viewport at any width: something would be cut off or need the page itself to scroll sideways.
+viewport): first with a small script that measures the page (its scroll width and height, the elements that
+reach past the right edge outside a scrolling box, settings labels narrower than their longest word, a table wider
+than its box without a visible hint to swipe, prediction cards of unequal size, figures shrunk below
+:data:`MIN_SCALE` of their pixels), then for a screenshot of the whole page height, written as
+``DIR/report-WIDTH.png`` (default DIR: ``report-screens`` in the current folder). Exits 1 when any of these shows
+at any width: something would be cut off, unreadable or need the page itself to scroll sideways.
 """
 
 from __future__ import annotations
@@ -36,22 +38,46 @@ from deformsim.version import __version__
 
 MAX_HEIGHT = 16000  # the longest screenshot, pixels
 MIN_WINDOW = 500  # Chromium's narrowest window
+MIN_SCALE = 0.6  # a figure drawn smaller than this share of its pixels has text too small to read (9 pt at 110 dpi: 8 px)
 MEASURE = """<script>addEventListener("load", () => {
-  const w = innerWidth, wide = [];
+  const w = innerWidth, wide = [], broken = [], hidden = [], small = [], cards = new Set();
   for (const el of document.querySelectorAll("body *")) {
     const r = el.getBoundingClientRect(), box = el.closest(".scroll");
     if (r.right > w + 0.5 && !(box && box !== el)) wide.push(el.tagName.toLowerCase() + "." + el.className);
   }
+  const ctx = document.createElement("canvas").getContext("2d");
+  for (const td of document.querySelectorAll(".kv td:first-child")) {
+    const cs = getComputedStyle(td);
+    ctx.font = cs.font;
+    const room = td.clientWidth - parseFloat(cs.paddingLeft) - parseFloat(cs.paddingRight);
+    const longest = Math.max(...td.textContent.split(/\\s+/).map(word => ctx.measureText(word).width));
+    if (longest > room + 1) broken.push(td.textContent);
+  }
+  for (const box of document.querySelectorAll(".scroll")) {
+    const hint = box.nextElementSibling;
+    const shown = hint && hint.classList.contains("hint") && getComputedStyle(hint).display !== "none";
+    if (box.scrollWidth > box.clientWidth + 1 && box.querySelector("table.t2") && !shown) hidden.push("t2");
+  }
+  for (const img of document.querySelectorAll(".thumb.ok img, .thumb.bad img, table.wrong img")) {
+    if (!img.closest(".cam")) cards.add(Math.round(img.getBoundingClientRect().width));
+  }
+  for (const img of document.querySelectorAll(".plots img")) {
+    const scale = img.width / img.naturalWidth;
+    if (img.naturalWidth && scale < SCALE) small.push(img.alt + " " + scale.toFixed(2));
+  }
   const out = parent.document.createElement("pre");
   out.id = "measure";
   out.textContent = JSON.stringify({width: w, scroll_width: document.documentElement.scrollWidth,
-                                    height: document.documentElement.scrollHeight, wide: wide.slice(0, 12)});
+                                    height: document.documentElement.scrollHeight, wide: wide.slice(0, 12),
+                                    broken_labels: broken, hidden_columns: hidden, card_widths: [...cards],
+                                    small_figures: small});
   parent.document.body.appendChild(out);
-});</script>"""
+});</script>""".replace("SCALE", str(MIN_SCALE))
 
 
 def tiny_report(folder: Path) -> Path:
-    """A report of random 128x96 photos: a variant near chance and one with no deformed prediction."""
+    """A report of random 128x96 photos: two variants near chance and one with no deformed prediction, its data in a
+    folder as deep as a run's."""
     rng = np.random.default_rng(0)
     y = [0, 1] * 20
     photos = folder / "photos"
@@ -72,12 +98,31 @@ def tiny_report(folder: Path) -> Path:
     near = np.clip(np.array(y) * 0.3 + rng.uniform(0.1, 0.7, 40), 0, 1).round(3).tolist()
     variants = {"procedural": {"n_images": 16, "n_samples": 4, "examples": [], "real": result(near),
                                "split": {"skipped": "a split needs at least 2 samples of each class"}},
+                "backgrounds": {"n_images": 16, "n_samples": 4, "examples": [], "real": result(near[::-1]),
+                                "split": {"skipped": "a split needs at least 2 samples of each class"}},
                 "black": {"n_images": 16, "n_samples": 4, "examples": [], "split": {"skipped": "too few samples"},
                           "real": result(rng.uniform(0.0, 0.45, 40).round(3).tolist())}}
-    metrics = {"created": "2026-01-01T00:00:00+00:00", "data_root": str(folder / "data"), "real_dir": str(photos),
+    data = folder / "home" / "someone" / "projects" / "deformsim" / "runs" / "demo" / "data-3f2a9c81d0e4b5a6"
+    metrics = {"created": "2026-01-01T00:00:00+00:00", "data_root": str(data), "real_dir": str(photos),
                "settings": TrainConfig(weights="offline", epochs=5).model_dump(mode="json"), "version": __version__,
                "missing_variants": [], "variants": variants, "plots": {}, "seconds": 12.0}
     return write_report(metrics, folder / "report").parent
+
+
+def problems(m: dict) -> list[str]:
+    """What :func:`measure` found wrong with a page, one line each."""
+    found = []
+    if m["scroll_width"] > m["width"]:
+        found.append(f"WIDER THAN THE WINDOW: {', '.join(m['wide']) or '?'}")
+    if m["broken_labels"]:
+        found.append(f"settings labels break inside a word: {', '.join(m['broken_labels'])}")
+    if m["hidden_columns"]:
+        found.append("Table II has columns off screen and no hint to swipe")
+    if len(m["card_widths"]) > 1:
+        found.append(f"prediction cards of different sizes: {sorted(m['card_widths'])} px")
+    if m["small_figures"]:
+        found.append(f"figures shrunk below {MIN_SCALE:g} of their pixels: {', '.join(m['small_figures'])}")
+    return found
 
 
 def chromium() -> str:
@@ -126,10 +171,10 @@ def main() -> None:
         height = min(m["height"], MAX_HEIGHT)
         browse(report.read_text(), width, height, f"--screenshot={png}")
         Image.open(png).crop((0, 0, width, height)).save(png)
-        fits = m["scroll_width"] <= width
-        cut |= not fits
+        found = problems(m)
+        cut |= bool(found)
         print(f"{width:>5} px: page {m['scroll_width']} x {m['height']} px, "
-              + ("nothing cut off" if fits else f"WIDER THAN THE WINDOW: {', '.join(m['wide']) or '?'}") + f" -> {png}")
+              + ("; ".join(found) or "nothing cut off, broken or too small") + f" -> {png}")
     sys.exit(1 if cut else 0)
 
 

@@ -119,3 +119,15 @@ def test_a_terminal_gets_a_live_bar_and_no_progress_lines(monkeypatch, capsys):
         bar.update(4)
     assert "render" in screen.getvalue() and "4/4" in screen.getvalue()
     assert capsys.readouterr().err == ""
+
+
+def test_a_terminal_shows_iso_times_as_the_log_files_do(monkeypatch):
+    import logging
+
+    screen = Console(file=io.StringIO(), force_terminal=True, width=200, color_system=None)
+    monkeypatch.setattr(log, "_console", screen)
+    handler = log._Handler()
+    handler.emit(logging.LogRecord("deformsim.x", logging.INFO, __file__, 1, "stage %s", ("report",), None))
+    handler.emit(logging.LogRecord("deformsim.x", logging.INFO, __file__, 2, "again", (), None))
+    lines = screen.file.getvalue().splitlines()
+    assert all(re.match(r"^\[\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\] INFO +(stage report|again)", line) for line in lines), lines

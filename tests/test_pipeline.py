@@ -36,8 +36,13 @@ def test_run_on_the_builtin_can_makes_a_report_and_skips_what_is_done(tmp_path):
     first = run(cfg, tmp_path / "run", progress=False)
     real = real_folder(first.data, tmp_path / "real")
     result = run(cfg, tmp_path / "run", real=real, progress=False)
-    assert result.skipped == ["generate", "composite:procedural"] and "report" in result.seconds
+    assert result.skipped == ["generate", "composite:procedural"]
+    assert list(result.seconds)[0] == "report: training" and list(result.seconds)[-1] == "report: testing, plots and the page"
     metrics = json.loads((tmp_path / "run" / "report" / "metrics.json").read_text())
+    best = max(("black", "procedural"), key=lambda v: metrics["variants"][v]["real"]["metrics"]["accuracy"])
+    linked = tmp_path / "run" / "report" / metrics["variants"][best]["real"]["model"]
+    assert result.model == tmp_path / "run" / "model"  # the headline model, hard-linked: no second copy
+    assert (result.model / "model.pt").stat().st_ino == linked.stat().st_ino
     assert set(metrics["variants"]) == {"black", "procedural"}
     acc = metrics["variants"]["black"]["real"]["metrics"]["accuracy"]
     assert f"{100 * acc:.1f}%" in result.report.read_text()

@@ -46,12 +46,23 @@ class SpecCheck:
 
 @dataclass(frozen=True)
 class Prediction:
-    """A model's output per image: columns (CSV name -> one value per image) and their table headings."""
+    """A model's output per image: columns (CSV name -> one value per image), their table headings and, for a label
+    model, the P(deformed) threshold of its labels."""
 
     paths: list[Path]
     columns: dict[str, Sequence]
     headings: tuple[str, ...]
+    threshold: float | None = None
     prior: float | None = None  # with predict --adapt: the images' estimated share of deformed parts
+
+    def frame(self):
+        """The prediction as a pandas DataFrame: a ``path`` column (bytes that are not UTF-8 as \\xNN), then the
+        columns."""
+        import pandas as pd
+
+        from deformsim.atomic import printable
+
+        return pd.DataFrame({"path": [printable(str(p)) for p in self.paths], **self.columns})
 
 
 def _path(p: str | Path | None) -> Path | None:
@@ -161,23 +172,24 @@ class Engine:
                            progress=self.progress)
 
     def predict(self, model: str | Path, images: Sequence[str | Path], csv: str | Path | None = None,
-                adapt: AdaptRecipe | None = None) -> Prediction:
-        """P(deformed) and the label of each image (files, or folders searched recursively), or what a model of
-        another ``train.target`` predicts; also written to ``csv`` (columns path, then the prediction's). ``model``:
-        model.pt, its folder, or an exported ``.onnx`` file (read with onnxruntime alone, no torch).
+                threshold: float | None = None, adapt: AdaptRecipe | None = None) -> Prediction:
+        """P(deformed) and the label of each image (files, or folders searched recursively) at ``threshold``
+        (default: the model's own), or what a model of another ``train.target`` predicts; also written to ``csv``
+        (columns path, then the prediction's). ``model``: model.pt, its folder, or an exported ``.onnx`` file (read
+        with onnxruntime alone, no torch).
 
         ``adapt``: first adapt the model, in memory, to the images themselves (no label read; at least 8 distinct
         photos, :mod:`deformsim.learn.adapt_stage`); the prediction's ``prior`` is their estimated share of
         deformed parts."""
-        import pandas as pd
-
-        from deformsim.atomic import atomic_path, printable
+        from deformsim.atomic import atomic_path
         from deformsim.dataset.real import expand_images
         from deformsim.outputs import check_file_target
 
         paths = expand_images(list(images))
         if csv is not None:
             check_file_target(csv, "--csv", [model, *paths])
+        if threshold is not None and not 0 < threshold < 1:
+            raise UserError(f"--threshold must lie in (0, 1), got {threshold:g}")
         if Path(model).suffix.lower() == ".onnx":
             from deformsim.learn.onnx_predict import OnnxPredictor
 
@@ -188,6 +200,8 @@ class Engine:
             from deformsim.learn.predict import load
 
             predictor = load(model)
+        if threshold is not None and predictor.target != "label":
+            raise UserError(f"--threshold applies to a model of train.target label; {model} predicts {predictor.target}")
         prior = None
         if adapt is not None:
             from deformsim.learn.adapt_stage import check_adaptable, distinct_photos, fit_on
@@ -197,13 +211,15 @@ class Engine:
             predictor.adapter, _ = fit_on(predictor, distinct, adapt)
             prior = predictor.adapter.prior
         if predictor.target == "label":
-            proba, labels = predictor.predict(paths)
-            prediction = Prediction(paths, {"p_deformed": proba, "label": labels}, ("P(deformed)", "label"), prior)
+            proba, labels = predictor.predict(paths, threshold)
+            cut = predictor.cfg.threshold if threshold is None else threshold
+            prediction = Prediction(paths, {"p_deformed": proba, "label": labels}, ("P(deformed)", "label"), cut,
+                                    prior)
         else:
             prediction = _target_prediction(predictor, paths)
         if csv is not None:
             with atomic_path(csv) as tmp:
-                pd.DataFrame({"path": [printable(str(p)) for p in paths], **prediction.columns}).to_csv(tmp, index=False)
+                prediction.frame().to_csv(tmp, index=False)
         return prediction
 
     def export_onnx(self, model: str | Path, onnx: str | Path) -> Path:

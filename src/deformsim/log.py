@@ -20,7 +20,8 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 MIN_GAP_S = 5.0  # off a terminal: the shortest time between two progress lines
 EVERY_S = 30.0  # and the longest, while work goes on
 LEVELS = {"quiet": logging.WARNING, "normal": logging.INFO, "verbose": logging.DEBUG}
-PLAIN = logging.Formatter("%(asctime)s %(levelname)s %(message)s", "%Y-%m-%d %H:%M:%S")
+TIME_FORMAT = "%Y-%m-%d %H:%M:%S"  # ISO 8601, on a terminal and off it
+PLAIN = logging.Formatter("%(asctime)s %(levelname)s %(message)s", TIME_FORMAT)
 
 _console = Console(stderr=True)
 _root = logging.getLogger("deformsim")
@@ -32,7 +33,8 @@ class _Handler(logging.Handler):
 
     def __init__(self):
         super().__init__()
-        self._rich = RichHandler(console=_console, show_path=False, rich_tracebacks=False, markup=False)
+        self._rich = RichHandler(console=_console, show_path=False, rich_tracebacks=False, markup=False,
+                                 log_time_format=f"[{TIME_FORMAT}]", omit_repeated_times=False)
 
     def emit(self, record: logging.LogRecord) -> None:
         if _console.is_terminal:

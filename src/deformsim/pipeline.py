@@ -5,7 +5,8 @@ the HDRI, background and real photos), never by their paths or times; a stage wh
 hash matches the one recorded in ``OUT/stages.json`` is skipped. The dataset folder is named after the hash of
 the settings and input contents that determine the renders, so changing only training settings reuses the
 renders, growing ``n`` resumes, and an edited mesh or spec renders a new dataset. The report is built beside
-the old one and replaces it whole. ``OUT`` holds no other deformsim output, no input lies in a folder the run
+the old one and replaces it whole; the model of its headline test is hard-linked into ``OUT/model``, the one to
+use (``deformsim predict OUT/model PHOTOS``). ``OUT`` holds no other deformsim output, no input lies in a folder the run
 replaces (the dataset, the report), and ``OUT`` does not lie in a folder of photos it reads.
 """
 
@@ -25,6 +26,7 @@ from deformsim.generate.stage import prepare
 from deformsim.identity import digest
 from deformsim.log import get_logger
 from deformsim.outputs import check_apart, check_folder_target, check_outside, kinds_in, sweep
+from deformsim.report.headline import RUN_MODEL, headline_model, link_model
 from deformsim.report.stage import make_report, real_digest
 from deformsim.spec.model import load_spec
 
@@ -40,6 +42,7 @@ class RunResult:
     report: Path | None
     seconds: dict[str, float] = field(default_factory=dict)
     skipped: list[str] = field(default_factory=list)
+    model: Path | None = None  # the model of the report's headline test, the one to use
 
 
 class Stages:
@@ -58,6 +61,26 @@ class Stages:
     def done(self, name: str, stamp: str) -> None:
         self.stamps[name] = stamp
         write_json(self.path, self.stamps)
+
+
+STAGE_TITLES = {"generate": "generate: render the dataset", "report": "report: train and test each variant"}
+
+
+def _report_split(seconds: float, metrics: Path) -> dict[str, float]:
+    """The report stage's ``seconds`` as the time its models trained, its dense-label heads took (when it has them)
+    and the rest (testing, plots, the page), by the times in its ``metrics`` file."""
+    try:
+        recorded = json.loads(metrics.read_text())
+        parts = [e.get(p) or {} for e in recorded["variants"].values() for p in ("split", "real")]
+        trained = sum(part["train_seconds"] for part in parts if "train_seconds" in part)
+        dense = float((recorded.get("dense") or {}).get("seconds") or 0.0)
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {"report": seconds}
+    out = {"report: training": trained}
+    if dense:
+        out["report: dense-label heads"] = dense
+    out["report: testing, plots and the page"] = max(0.0, seconds - trained - dense)
+    return out
 
 
 def _inputs(cfg: Config, real: Path | None) -> dict[str, Path | None]:
@@ -85,7 +108,8 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     identity = data_identity(cfg, spec)
     data = out / f"data-{digest(identity)}"
     inputs = _inputs(cfg, real)
-    for replaced, what in ((data, "the run's dataset folder"), (out / "report", "the run's report folder")):
+    for replaced, what in ((data, "the run's dataset folder"), (out / "report", "the run's report folder"),
+                           (out / RUN_MODEL, "the run's model folder")):
         check_apart(replaced, what, inputs)
     check_outside(out, "--out", {"real photos": real, "backgrounds folder": cfg.composite.backgrounds, **cfg.photo_folders()})
     prepared = prepare(cfg, data, overwrite, spec)  # every input check before any work
@@ -99,11 +123,18 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     stages = Stages(out)
     result = RunResult(out=out, data=data, report=out / "report" / "report.html")
 
+    variants = [v if v != "backgrounds" or cfg.composite.backgrounds else "procedural" for v in cfg.composite.variants]
+    composited = [v for v in variants if v not in ("black", "green")]
+    names = ["generate", *(f"composite:{v}" for v in composited), "report"]
+
     def stage(name: str, stamp: str, output: Path, work) -> None:
+        title = STAGE_TITLES.get(name) or f"{name.replace(':', ' ')}: the renders on backgrounds"
+        header = f"stage {names.index(name) + 1} of {len(names)}, {title}"
         if stages.fresh(name, stamp, output):
             result.skipped.append(name)
-            log.info("stage %s is up to date: skipped", name)
+            log.info("%s: up to date, skipped", header)
             return
+        log.info("%s", header)
         t0 = time.perf_counter()
         work()
         result.seconds[name] = time.perf_counter() - t0
@@ -113,8 +144,6 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     stage("generate", gen_stamp, data / "manifest.parquet",
           lambda: generate(cfg, data, progress=progress, prepared=prepared, overwrite=overwrite))
 
-    variants = [v if v != "backgrounds" or cfg.composite.backgrounds else "procedural" for v in cfg.composite.variants]
-    composited = [v for v in variants if v not in ("black", "green")]
     comp_stamps = {}
     for name in composited:
         # "procedural" always uses the built-in backgrounds; any other name the photo folder, when given
@@ -132,4 +161,12 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
         make_report(data, train_cfg, out / "report", real=real, overwrite=True, progress=progress)
 
     stage("report", report_stamp, result.report, report)
+    if "report" in result.seconds:
+        result.seconds.update(_report_split(result.seconds.pop("report"), out / "report" / "metrics.json"))
+    model = headline_model(out / "report")
+    if model is not None:
+        result.model = out / RUN_MODEL
+        if not stages.fresh("model", report_stamp, result.model / "model.pt"):
+            link_model(model, result.model)
+            stages.done("model", report_stamp)
     return result

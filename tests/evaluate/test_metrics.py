@@ -62,14 +62,25 @@ def test_intervals_hold_the_value_and_narrow_with_more_photos():
     y = rng.integers(0, 2, 400)
     prob = np.clip(y * 0.5 + rng.uniform(0, 0.6, 400), 0, 1)
     small, big = compute_metrics(y[:40], prob[:40]), compute_metrics(y, prob)
+    keys = ("accuracy", "f1", "precision", "recall")
     for m in (small, big):
-        for k in ("accuracy", "f1"):
+        for k in keys:
             lo, hi = m["interval"][k]
             assert lo <= m[k] <= hi
-    width = {k: [m["interval"][k][1] - m["interval"][k][0] for m in (small, big)] for k in ("accuracy", "f1")}
+    width = {k: [m["interval"][k][1] - m["interval"][k][0] for m in (small, big)] for k in keys}
     assert all(w_big < w_small / 2 for w_small, w_big in width.values())
-    assert compute_metrics(y, prob)["interval"] == big["interval"]  # seeded: the same every time
-    assert compute_metrics(y, prob, seed=3)["interval"]["f1"] != big["interval"]["f1"]
+
+
+def test_a_perfect_score_on_few_images_keeps_a_wide_interval():
+    """8 photos all right: a percentile bootstrap of F1 gave 100.0-100.0 beside accuracy's 67.6-100."""
+    m = compute_metrics([0, 1] * 4, [0.1, 0.9] * 4)
+    assert m["interval"]["accuracy"] == pytest.approx((0.6756, 1.0), abs=1e-4)
+    for k in ("f1", "precision", "recall"):  # 4 true positives, nothing wrong
+        assert m["interval"][k] == pytest.approx(wilson_interval(4, 4)) and m["interval"][k][0] < 0.55
+    (tn, fp), (fn, tp) = compute_metrics([0, 1, 1, 1, 0, 0], [0.9, 0.9, 0.9, 0.1, 0.1, 0.1])["confusion"]["matrix"]
+    assert (tp, fp, fn) == (2, 1, 1)
+    f1 = compute_metrics([0, 1, 1, 1, 0, 0], [0.9, 0.9, 0.9, 0.1, 0.1, 0.1])["interval"]["f1"]
+    assert f1 == pytest.approx(wilson_interval(2, 3))  # F1 = TP / (TP + (FP + FN) / 2) = 2 / 3
 
 
 def test_chance_accuracy_has_an_interval_over_the_baseline():
@@ -81,7 +92,8 @@ def test_chance_accuracy_has_an_interval_over_the_baseline():
 def test_undefined_ratios_are_named():
     assert compute_metrics(np.zeros(3, int), [0.1, 0.2, 0.3])["undefined"] == ["precision", "recall", "f1"]
     none_predicted = compute_metrics([0, 1], [0.1, 0.2])
-    assert none_predicted["undefined"] == ["precision"] and none_predicted["interval"]["f1"] == [0.0, 0.0]
+    assert none_predicted["undefined"] == ["precision"] and none_predicted["interval"]["f1"][0] == 0.0
+    assert none_predicted["interval"]["precision"] is None
     assert compute_metrics([0, 1], [0.1, 0.9])["undefined"] == []
     assert compute_metrics(np.zeros(3, int), [0.1, 0.2, 0.3])["interval"]["f1"] is None
 

@@ -62,10 +62,14 @@ def test_a_token_cluster_renders_through_its_address_and_a_missing_token_names_a
                  "32", "--samples", "1", "--backend", "ray", "--address", address, "--no-progress"],
                 cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
 
+        t0 = time.monotonic()
         refused = generate(tmp_path / "refused", base)
         assert refused.returncode == 2, refused.stderr
         assert "authentication token" in refused.stderr and "Traceback" not in refused.stderr
         assert "check the path" not in refused.stderr
+        # one line, before Ray's 20 s of retries (each a log line, then its misleading "run `ray stop`" hint)
+        assert "InvalidAuthToken" not in refused.stderr and "ray stop" not in refused.stderr, refused.stderr
+        assert refused.stderr.strip().splitlines()[-1].startswith("error: Ray cluster at ") and time.monotonic() - t0 < 15
 
         done = generate(tmp_path / "out", {**base, "RAY_AUTH_TOKEN_PATH": str(token)})  # RAY_AUTH_MODE unset
         assert done.returncode == 0, done.stderr[-2000:]

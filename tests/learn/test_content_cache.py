@@ -64,6 +64,6 @@ def test_prediction_shows_progress_on_a_terminal(model_dir, blobs, monkeypatch, 
         paths.append(tmp_path / f"{i}.png")
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
     load(model_dir).predict_proba(paths[:3])
-    assert bars == [("frozen layers", True)]
+    assert bars == [("images", True)]
     load(model_dir, progress=False).predict_proba(paths[3:])
-    assert bars[-1] == ("frozen layers", False)
+    assert bars[-1] == ("images", False)

@@ -206,3 +206,52 @@ def test_without_the_extras_predict_reads_an_onnx_export_and_other_commands_name
     proc = _without_extras("generate", "--out", str(tmp_path / "data"), "--n", "8")
     assert proc.returncode == 1 and "rendering needs bpy, which is not installed: pip install 'deformsim[render]'" in proc.stderr
     assert not (tmp_path / "data").exists()
+
+
+def _predict(*args):
+    from deformsim.cli.app import app
+
+    return CliRunner().invoke(app, ["predict", *map(str, args)])
+
+
+def test_predict_threshold_json_csv_to_stdout_and_the_count(model_dir, blobs, tmp_path, monkeypatch):
+    import json
+
+    paths = list(blobs.groupby("y").head(3)["path"])
+    p = load(model_dir).predict_proba(paths)
+    cut = float(np.sort(p)[2] + np.sort(p)[3]) / 2  # three images below it, three at or above
+    monkeypatch.chdir(tmp_path)
+    res = _predict(model_dir, *paths, "--csv", "-", "--threshold", cut)
+    assert res.exit_code == 0, res.output
+    csv = pd.read_csv(__import__("io").StringIO(res.stdout))
+    assert list(csv.columns) == ["path", "p_deformed", "label"] and len(csv) == 6
+    assert list(csv["label"]) == ["deformed" if q >= cut else "intact" for q in p]
+    assert not (tmp_path / "-").exists()  # stdout, not a file named -
+    assert f"3 deformed of 6 images (threshold {cut:g})" in res.stderr
+    res = _predict(model_dir, *paths, "--json")
+    rows = [json.loads(line) for line in res.stdout.splitlines()]
+    assert [r["path"] for r in rows] == [str(x) for x in paths] and rows[0]["p_deformed"] == pytest.approx(p[0])
+    threshold = load(model_dir).cfg.threshold
+    assert f"{int((p >= threshold).sum())} deformed of 6 images (threshold {threshold:g})" in res.stderr
+    res = _predict(model_dir, *paths, "--threshold", "1.5")
+    assert res.exit_code == 2 and res.output == "error: --threshold must lie in (0, 1), got 1.5\n"
+
+
+def test_predict_on_a_run_or_report_folder_names_its_model(model_dir, blobs, tmp_path):
+    import json
+    import shutil
+
+    report = tmp_path / "run" / "report"
+    shutil.copytree(model_dir, report / "models" / "procedural_split")
+    m = {"n": 8, "accuracy": 0.9}
+    (report / "metrics.json").write_text(json.dumps({"variants": {
+        "black": {"split": {"metrics": {**m, "accuracy": 0.7}, "model": "models/black_split"}},
+        "procedural": {"split": {"metrics": m, "model": "models/procedural_split"}}}}))
+    photo = blobs["path"][0]
+    res = _predict(report, photo)
+    assert res.exit_code == 2 and " ".join(res.output.split()) == (
+        f"error: no trained model at {report} (a report folder: the model of its headline test is "
+        f"{report / 'models' / 'procedural_split'})")
+    shutil.copytree(model_dir, tmp_path / "run" / "model")
+    res = _predict(tmp_path / "run", photo)
+    assert res.exit_code == 2 and f"a run folder: its model is {tmp_path / 'run' / 'model'}" in res.output

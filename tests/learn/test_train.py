@@ -159,6 +159,13 @@ def test_epochs_are_logged_at_debug_and_each_training_in_one_info_line(blobs, tm
     assert len(epochs) == 2 and all("validation accuracy" in line for line in epochs)
 
 
+def test_a_training_without_validation_images_says_none(blobs, tmp_path, capsys):
+    one_object_each = blobs.groupby("y").head(6).assign(sample=lambda t: t["y"])  # nothing left to validate on
+    fit(one_object_each, CFG, tmp_path / "m", progress=False)
+    summary = [line for line in capsys.readouterr().err.splitlines() if " INFO trained " in line]
+    assert len(summary) == 1 and "validation" not in summary[0] and "(0 images)" not in summary[0]
+
+
 def test_balance_weighs_the_fewer_deformed_images_up(blobs, tmp_path):
     # classes that overlap, as deformed images whose damage hardly shows do: of the jagged shapes only one in four is
     # labelled deformed, so an unbalanced model rates them about 0.25 and a balanced one near its class weight's odds

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import shutil
+from importlib import metadata
 
 import numpy as np
 import onnx
@@ -122,7 +123,7 @@ def test_imagenet_prefers_torch_hub_cache(tmp_path, monkeypatch):
     shutil.copy(W._locate(MOBILENET), ckpt / "mobilenet_v2-b0353104.pth")
     monkeypatch.setenv("TORCH_HOME", str(tmp_path))
     state, desc = W.resolve("mobilenet_v2", "imagenet")
-    assert desc == "torchvision mobilenet_v2-b0353104.pth"
+    assert desc == "mobilenet_v2 ImageNet weights: torchvision mobilenet_v2-b0353104.pth"
     assert state["0.0.weight"].shape == (32, 3, 3, 3)
 
 
@@ -145,9 +146,9 @@ def test_wrong_digest_is_rejected(monkeypatch):
 
 def test_missing_package_names_the_options(tmp_path, monkeypatch):
     def missing(name):
-        raise W.metadata.PackageNotFoundError(name)
+        raise metadata.PackageNotFoundError(name)
 
-    monkeypatch.setattr(W.metadata, "distribution", missing)
+    monkeypatch.setattr(metadata, "distribution", missing)
     monkeypatch.setenv("DEFORMSIM_CACHE", str(tmp_path))  # no converted copy either
     with pytest.raises(UserError) as err:
         W.resolve("vgg16", "offline")

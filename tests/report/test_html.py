@@ -106,7 +106,7 @@ def test_report_shows_calibration_and_gradcam_of_the_real_photos(metrics):
         preds = e["real"]["predictions"]
         ece = reliability([p["y"] for p in preds], [p["prob"] for p in preds])["ece"]
         assert f"<b>{v}</b> {ece:.3f}" in calibration
-    assert calibration.count("data:image/png;base64,") == 1  # one figure, a diagram per variant
+    assert calibration.count("data:image/png;base64,") == len(m["variants"])  # a figure per variant: readable on a phone
     cams = html[html.index("Where the models look"):html.index("Domain gap")]
     assert "<h3>black</h3>" in cams and "<h3>backgrounds</h3>" not in cams  # only models with heatmaps
     assert cams.count("data:image/jpeg;base64,") == 3 and "3 of the 8 photos" in cams
@@ -155,7 +155,7 @@ def test_big_number_is_green_only_when_its_interval_clears_the_baseline(metrics)
     assert 'class="big above">90.0%' in _hero(good) and "above the majority baseline" in _hero(good)
     bad = write_report(_only(m, "black", y, [0.9, 0.1] * 45 + [0.1, 0.9] * 5), out).read_text()  # 10 %
     assert 'class="big below">10.0%' in _hero(bad)
-    assert "F1" in _hero(good) and "(bootstrap over the images)" in _hero(good)
+    assert "F1" in _hero(good) and "(Wilson)" in _hero(good) and "precision 90.0% (" in _hero(good)
 
 
 def test_undefined_precision_shows_a_dash_not_zero(metrics):
@@ -163,7 +163,7 @@ def test_undefined_precision_shows_a_dash_not_zero(metrics):
     html = write_report(_only(m, "black", [0, 0, 1, 1], [0.1, 0.2, 0.3, 0.4]), out).read_text()  # none predicted deformed
     assert "precision — · recall 0.0%" in _hero(html)
     table = html[html.index('class="t2"'):html.index("</table>")]
-    assert table.count(">—<") == 1 and ">0.0%<span class=ci>0.0–0.0%</span>" in table  # F1 0 is defined
+    assert table.count(">—<") == 1 and ">0.0%<span class=ci>0.0–79.3%</span>" in table  # F1 0 is defined (Wilson)
 
 
 def test_best_is_bold_only_with_a_margin(metrics):
@@ -185,13 +185,16 @@ def test_every_wrong_prediction_is_listed_with_name_probability_and_link(metrics
     prob = [0.8, 0.2] * 10 + [0.1, 0.9] * 5  # 20 wrong, 10 right
     html = write_report(_only(m, "black", y, prob, folder=tmp_path / "photos"), out).read_text()
     wrong = html[html.index("<h3>Wrong (20)"):html.index("<h3>Right (10)")]
-    rows = re.findall(r'<tr><td><a href="([^"]+)">.*?</a></td><td class=name><a href="([^"]+)">([^<]+)</a></td>'
-                      r"<td>(\w+)</td><td>([\d.]+)</td></tr>", wrong)
-    assert len(rows) == 20 and "more" not in wrong
-    for thumb_link, name_link, name, label, p in rows:
+    right = html[html.index("<h3>Right (10)"):]
+    card = (r'<div class="thumb (\w+)" title="([^"]+)">(?:<img src="data:[^"]+" alt="">|<div class="missing">missing</div>)'
+            r'(\w+)<br>P\(deformed\) = ([\d.]+)<div class=sub><a href="([^"]+)">([^<]+)</a></div></div>')
+    rows = re.findall(card, wrong)
+    assert len(rows) == 20 and "more" not in wrong and "<table" not in wrong
+    for cls, path, label, p, link, name in rows:
         i = int(name.removesuffix(".png"))
-        assert thumb_link == name_link == (tmp_path / "photos" / name).resolve().as_uri()
+        assert cls == "bad" and path == str(tmp_path / "photos" / name) and link == Path(path).resolve().as_uri()
         assert (label, float(p)) == (("intact", "deformed")[y[i]], prob[i])
+    assert len(re.findall(card, right)) == 10  # the right ones: cards of the same kind and size
 
 
 def test_every_name_shown_is_escaped(metrics, tmp_path):

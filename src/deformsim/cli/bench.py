@@ -8,6 +8,7 @@ from typing import Optional
 
 import typer
 
+from deformsim.cli.choices import completes, variant_choices
 from deformsim.cli.common import ConfigArgs, console, fail_cleanly, set_option
 from deformsim.cli.summary import baseline_summary, sim2real_summary
 
@@ -132,8 +133,8 @@ def fewshot(
                           "leave one of each class to score)"),
     draws: int = typer.Option(5, "--draws", help="draws of the k photos per k"),
     seeds: int = typer.Option(2, "--seeds", help="training seeds per draw"),
-    part: str = typer.Option("head", "--part", help="what trains: head (on cached features, fast), or tail (the "
-                             "backbone layers train trained, and the head)"),
+    part: str = typer.Option("head", "--part", autocompletion=completes("head", "tail"), help="what trains: head (on "
+                             "cached features, fast), or tail (the head and the backbone layers that training trained)"),
     steps: int = typer.Option(100, "--steps", help="optimiser steps per adaptation"),
     lr: float = typer.Option(1e-4, "--lr", help="learning rate of the synthetic model's adaptation (the ImageNet "
                              "curve trains its new head at the model's train.lr)"),
@@ -143,7 +144,8 @@ def fewshot(
                                "(ImageNet weights, trained on the k photos alone)"),
     data: Optional[Path] = typer.Option(None, "--data", help="generated dataset whose images are mixed into the "
                                         "synthetic model's batches (with --variant)"),
-    variant: Optional[str] = typer.Option(None, "--variant", help="image variant of --data"),
+    variant: Optional[str] = typer.Option(None, "--variant", autocompletion=variant_choices,
+                                         help="image variant of --data"),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:
     """Adapt a model on k labelled real photos per class, score it on the remaining photos; print accuracy and F1

@@ -21,8 +21,22 @@ from deformsim.errors import UserError
 __all__ = ["REAL_HELP", "SHORTCUTS", "ConfigArgs", "console", "err_console", "fail_cleanly", "from_config", "note",
            "parse_sets", "plain_engine", "set_option", "shortcut", "shortcut_flags", "yes_option"]
 
-console = Console()
-err_console = Console(stderr=True)
+
+
+class _Console(Console):
+    """A console whose lines wrap only on a terminal: into a file or pipe each printed line stays one line."""
+
+    @property
+    def soft_wrap(self) -> bool:
+        return self._soft_wrap or not self.is_terminal
+
+    @soft_wrap.setter
+    def soft_wrap(self, value: bool) -> None:
+        self._soft_wrap = value
+
+
+console = _Console()
+err_console = _Console(stderr=True)
 
 RESUME = "only complete files were kept; rerun the same command to resume"
 
@@ -176,8 +190,11 @@ SHORTCUTS = {
 
 def shortcut(flag: str):
     """The typer option of the :data:`SHORTCUTS` flag ``flag`` (unset: None, the config's value)."""
+    from deformsim.cli.choices import config_choices, config_values
+
     s = SHORTCUTS[flag]
-    return typer.Option(None, *(s.decls or (flag,)), help=from_config(s.help, s.key) if s.shows_default else s.help)
+    return typer.Option(None, *(s.decls or (flag,)), help=from_config(s.help, s.key) if s.shows_default else s.help,
+                        autocompletion=config_choices(s.key) if config_values(s.key) else None)
 
 
 def shortcut_flags(**values) -> dict[str, tuple[str, object]]:

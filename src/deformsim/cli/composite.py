@@ -7,6 +7,7 @@ from typing import Optional
 
 import typer
 
+from deformsim.cli.choices import config_choices
 from deformsim.cli.common import ConfigArgs, console, err_console, fail_cleanly, set_option
 
 
@@ -22,7 +23,8 @@ def register(app: typer.Typer) -> None:
             None, "--name", help="variant name (default: 'backgrounds' with a folder, else 'procedural')"
         ),
         matte: Optional[str] = typer.Option(
-            None, "--matte", help="chroma (soft green key), alpha (exact render alpha), inrange (the paper's key)"
+            None, "--matte", autocompletion=config_choices("composite.matte"),
+                             help="chroma (soft green key), alpha (exact render alpha), inrange (the paper's key)"
         ),
         seed: int = typer.Option(0, "--seed", help="seed of every background choice, crop and flip"),
         workers: Optional[int] = typer.Option(None, "--workers", help="processes (0 = automatic)"),

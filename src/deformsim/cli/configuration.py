@@ -14,7 +14,8 @@ def register(app: typer.Typer) -> None:
     @config_app.command("show")
     @fail_cleanly
     def show(
-        preset: str = typer.Option("quick", "--preset", "-p", help="Preset name or YAML config file to show."),
+        config: str = typer.Option("quick", "--config", "-c", "--preset", "-p", help="YAML config file or preset name to "
+                                    "show"),
     ) -> None:
         """Print every setting with its value, description and default as commented YAML.
 
@@ -22,4 +23,4 @@ def register(app: typer.Typer) -> None:
         from deformsim.config import load_config
         from deformsim.config_reference import commented_yaml
 
-        typer.echo(commented_yaml(load_config(preset)), nl=False)
+        typer.echo(commented_yaml(load_config(config)), nl=False)

@@ -7,6 +7,7 @@ from typing import Optional
 
 import typer
 
+from deformsim.cli.choices import config_choices, variant_choices, variants_choices
 from deformsim.cli.common import (
     REAL_HELP,
     ConfigArgs,
@@ -39,7 +40,8 @@ def register(app: typer.Typer) -> None:
     def evaluate(
         model_dir: Path = typer.Argument(..., help="trained model folder (from deformsim train or report)"),
         data: Optional[Path] = typer.Option(None, "--data", help="generated dataset to test on (with --variant)"),
-        variant: Optional[str] = typer.Option(None, "--variant", help="image variant of --data, e.g. black"),
+        variant: Optional[str] = typer.Option(None, "--variant", autocompletion=variant_choices,
+                                              help="image variant of --data, e.g. black"),
         real: Optional[Path] = typer.Option(None, "--real", help=f"real photos to test on: {REAL_HELP}"),
         threshold: Optional[float] = typer.Option(
             None, help="P(deformed) at or above this predicts deformed (default: the model's own)"
@@ -61,14 +63,16 @@ def register(app: typer.Typer) -> None:
         real: Optional[Path] = typer.Option(None, "--real", help=f"real photos for sim-to-real: {REAL_HELP}"),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help="report folder (default: DATA-report beside the dataset)"),
         config: str = typer.Option("quick", "--config", "-c", help="YAML config file or preset name"),
-        variants: Optional[str] = typer.Option(None, help=from_config("Comma-separated training variants",
+        variants: Optional[str] = typer.Option(None, autocompletion=variants_choices,
+                                               help=from_config("Comma-separated training variants",
                                                                       "train.variants")),
         epochs: Optional[int] = typer.Option(None, help=from_config("Training epochs", "train.epochs")),
-        weights: Optional[str] = typer.Option(None, help=from_config("Backbone weights: imagenet, offline or none",
+        weights: Optional[str] = typer.Option(None, autocompletion=config_choices("train.weights"),
+                                              help=from_config("Backbone weights: imagenet, offline or none",
                                                                      "train.weights")),
         overwrite: bool = typer.Option(False, "--overwrite", help="replace a report in --out made with other settings"),
-        fewshot: Optional[Path] = typer.Option(None, "--fewshot", help="a bench fewshot fewshot.json whose curves "
-                                               "the report shows"),
+        fewshot: Optional[Path] = typer.Option(None, "--fewshot", help="the fewshot.json of deformsim bench "
+                                               "fewshot, whose curves the report shows"),
         set_: list[str] = set_option(),
         progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
     ) -> None:

@@ -7,6 +7,7 @@ from typing import Optional
 
 import typer
 
+from deformsim.cli.choices import completes, variant_choices
 from deformsim.cli.common import REAL_HELP, console, err_console, fail_cleanly, note, plain_engine
 
 
@@ -16,10 +17,11 @@ def finetune(
     out: Path = typer.Option(..., "--out", help="folder for the adapted model.pt and finetune.json"),
     data: Optional[Path] = typer.Option(None, "--data", help="generated dataset whose images are mixed into every "
                                         "batch so the model keeps what it learnt (with --variant)"),
-    variant: Optional[str] = typer.Option(None, "--variant", help="image variant of --data (default: the first of "
+    variant: Optional[str] = typer.Option(None, "--variant", autocompletion=variant_choices,
+                                          help="image variant of --data (default: the first of "
                                           "the model's train.variants)"),
-    part: str = typer.Option("tail", "--part", help="what trains: head, or tail (the backbone layers train trained, "
-                             "and the head)"),
+    part: str = typer.Option("tail", "--part", autocompletion=completes("head", "tail"), help="what trains: head, or "
+                             "tail (the head and the backbone layers that training trained)"),
     steps: int = typer.Option(100, "--steps", help="optimiser steps"),
     lr: float = typer.Option(1e-4, "--lr", help="Adam learning rate (small: the model starts trained)"),
     views: int = typer.Option(4, "--views", help="augmented views of each photo, beside its plain image"),

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import shlex
 from pathlib import Path
 from typing import Optional
 
 import typer
+from rich.markup import escape
 
 from deformsim.cli.common import (
     REAL_HELP,
@@ -49,11 +51,17 @@ def register(app: typer.Typer) -> None:
         Inputs count by content: an edited mesh, spec, background or real photo reruns what depends on it."""
         flags = shortcut_flags(object_=object_, spec=spec, n=n, resolution=resolution, samples=samples, epochs=epochs,
                                seed=seed, backgrounds=backgrounds)
-        engine = ConfigArgs(config, flags, sets=set_).engine(progress, note(err_console))
-        result = engine.run(out, real, overwrite=overwrite, yes=yes)
+        result = ConfigArgs(config, flags, sets=set_).engine(progress, note(err_console)).run(out, real,
+                                                                                           overwrite=overwrite, yes=yes)
+        if result.seconds:
+            console.print("[bold]time per stage:[/]", highlight=False)
         for name, secs in result.seconds.items():
-            console.print(f"  {name:<24} {secs:7.1f} s")
+            console.print(f"  {name:<36} {secs:7.1f} s", highlight=False)
         if result.skipped:
-            console.print(f"  up to date, skipped: {', '.join(result.skipped)}")
+            console.print(f"  up to date, skipped: {', '.join(result.skipped)}", highlight=False)
         if result.report is not None:
             report_summary(result.report)
+        console.print(f"[bold]Results saved to[/] {escape(str(result.out))}", highlight=False)
+        if result.model is not None:
+            console.print(f"[bold]predict with its model:[/] deformsim predict {escape(shlex.quote(str(result.model)))} "
+                          "PHOTOS...", highlight=False)

@@ -7,6 +7,7 @@ from typing import Optional
 
 import typer
 
+from deformsim.cli.choices import variant_choices
 from deformsim.cli.common import console, fail_cleanly
 
 
@@ -15,7 +16,8 @@ def register(app: typer.Typer) -> None:
     @fail_cleanly
     def show(
         data: Path = typer.Argument(..., help="Generated dataset folder."),
-        variant: str = typer.Option(..., "--variant", help="The variant: black, green, rgba or a composited one."),
+        variant: str = typer.Option(..., "--variant", autocompletion=variant_choices,
+                                    help="The variant: black, green, rgba or a composited one."),
         out: Optional[Path] = typer.Option(None, "--out", "-o",
                                            help="PNG to write (default: VARIANT_sheet.png, or VARIANT_dense.png)."),
         dense: bool = typer.Option(False, "--dense", help="One row per image: it, then its mask, depth, normal, "

@@ -25,18 +25,34 @@ def pick(df: pd.DataFrame, count: int, seed: int) -> pd.DataFrame:
     return both.iloc[rng.permutation(len(both))[:count]]
 
 
+MIN_FONT = 7  # pixels: a caption never gets a smaller font
+
+
+def caption(text: str, width: int, size: int) -> tuple[str, ImageFont.FreeTypeFont]:
+    """``text`` and the largest font of at most ``size`` px (not under :data:`MIN_FONT`) it fits ``width`` px in;
+    a text too long even then keeps its start and end around an ellipsis."""
+    for px in range(size, MIN_FONT - 1, -1):
+        font = ImageFont.load_default(size=px)
+        if font.getlength(text) <= width:
+            return text, font
+    keep = len(text)
+    while keep > 2 and font.getlength(f"{text[:-(-keep // 2)]}…{text[len(text) - keep // 2:]}") > width:
+        keep -= 1
+    return f"{text[:-(-keep // 2)]}…{text[len(text) - keep // 2:]}", font
+
+
 def grid(images: list[Image.Image], captions: list[tuple[str, tuple]], tile: int = 160, cols: int = 4) -> Image.Image:
-    """Tile images (resized to ``tile``) with a coloured caption bar under each."""
+    """Tile images (resized to ``tile``) with a coloured caption bar under each, its text whole where it fits."""
     bar = max(14, tile // 8)
     rows = max(1, -(-len(images) // cols))
     sheet = Image.new("RGB", (cols * tile, rows * (tile + bar)), (255, 255, 255))
-    font = ImageFont.load_default(size=max(8, bar - 6))
     draw = ImageDraw.Draw(sheet)
     for k, (img, (text, color)) in enumerate(zip(images, captions)):
         x, y = (k % cols) * tile, (k // cols) * (tile + bar)
         sheet.paste(img.convert("RGB").resize((tile, tile), Image.LANCZOS), (x, y))
         draw.rectangle([x, y + tile, x + tile - 1, y + tile + bar - 1], fill=color)
-        draw.text((x + 4, y + tile + 1), text, fill=(255, 255, 255), font=font)
+        shown, font = caption(text, tile - 8, max(8, bar - 6))
+        draw.text((x + 4, y + tile + 1), shown, fill=(255, 255, 255), font=font)
     return sheet
 
 

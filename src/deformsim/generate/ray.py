@@ -9,8 +9,12 @@ A cluster with token authentication (Ray 2.60's default) needs its token on the 
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
 import shutil
+import socket
+import sys
 import tempfile
 from pathlib import Path
 
@@ -26,6 +30,8 @@ from deformsim.parallel import cores_per_worker, worker_count
 from deformsim.sampling import SampleParams
 
 log = get_logger(__name__)
+
+PROBE_S = 5  # longest wait for a cluster's port to answer
 
 
 class RenderActor:
@@ -88,7 +94,13 @@ def _use_token_if_present() -> None:
         )
     except ImportError:  # a Ray without token authentication
         return
-    maybe_enable_token_auth_if_token_available(warn_if_disabled=False)
+    quiet = logging.getLogger("ray._private.authentication")  # its "token authentication is enabled" notice
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)
+    try:
+        maybe_enable_token_auth_if_token_available(warn_if_disabled=False)
+    finally:
+        quiet.setLevel(level)
 
 
 def _is_auth_failure(exc: BaseException | None) -> bool:
@@ -99,19 +111,77 @@ def _is_auth_failure(exc: BaseException | None) -> bool:
     return False
 
 
+def _token_source() -> str | None:
+    """Where this driver's cluster token comes from (``RAY_AUTH_TOKEN``, ``RAY_AUTH_TOKEN_PATH`` or
+    ``~/.ray/auth_token``); None when it has none."""
+    if os.environ.get("RAY_AUTH_TOKEN"):
+        return "RAY_AUTH_TOKEN"
+    path = os.environ.get("RAY_AUTH_TOKEN_PATH")
+    if path and Path(path).expanduser().is_file():
+        return f"RAY_AUTH_TOKEN_PATH {path}"
+    home = Path("~/.ray/auth_token").expanduser()
+    return str(home) if home.is_file() else None
+
+
+@contextlib.contextmanager
+def _stderr_silenced():
+    """File descriptor 2 to /dev/null for the block: Ray's C++ client writes its warnings there directly."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _probe(address: str) -> None:
+    """Refuse at once, in one line, a cluster at ``address`` that is unreachable or turns this driver's token
+    down, before ``ray.init`` retries for many seconds and logs each retry."""
+    host, _, port = address.rpartition(":")
+    if not host or not port.isdigit():
+        return  # not HOST:PORT: left to ray.init
+    try:
+        socket.create_connection((host, int(port)), timeout=PROBE_S).close()
+    except OSError:
+        raise UserError(f"could not connect to the Ray cluster at {address}: is Ray running there (`ray status`) "
+                        "and its port open?") from None
+    try:
+        from ray._raylet import GcsClient
+    except ImportError:  # pragma: no cover - a Ray without it
+        return
+    try:
+        with _stderr_silenced():
+            GcsClient(address=address)
+    except Exception as exc:  # Ray's own error types; only an authentication refusal is decided here
+        if _is_auth_failure(exc):
+            raise UserError(_auth_line(address)) from None
+
+
+def _auth_line(address: str) -> str:
+    source = _token_source()
+    if source is None:
+        return (f"Ray cluster at {address} refused this driver's authentication token: it has none; copy the head "
+                "node's ~/.ray/auth_token to the same place here, or set RAY_AUTH_TOKEN or RAY_AUTH_TOKEN_PATH "
+                "(docs/scaling.md; RAY_AUTH_MODE is not needed on the driver)")
+    return (f"Ray cluster at {address} refused this driver's authentication token (from {source}): it is not the "
+            "cluster's; copy the head node's ~/.ray/auth_token here, or point RAY_AUTH_TOKEN_PATH at it (docs/scaling.md)")
+
+
 def connect(address: str | None) -> None:
     """``ray.init`` at ``address`` with the cluster's token; a refusal for want of it names authentication."""
     import ray
 
     _use_token_if_present()
+    if address not in (None, "auto"):
+        _probe(address)
     try:
         ray.init(address=address, include_dashboard=False, log_to_driver=False)
     except Exception as exc:
         if _is_auth_failure(exc):
-            raise UserError(
-                f"Ray cluster at {address} refused this driver's authentication token: copy the head node's "
-                "~/.ray/auth_token here (or set RAY_AUTH_TOKEN or RAY_AUTH_TOKEN_PATH) and RAY_AUTH_MODE=token"
-            ) from None
+            raise UserError(_auth_line(str(address))) from None
         if isinstance(exc, ConnectionError):
             raise UserError(f"could not connect to the Ray cluster at {address}: is Ray running there "
                             "(`ray status`) and its port open?") from None

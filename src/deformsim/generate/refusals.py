@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from deformsim.config import CONFIRM_IMAGES, Config
+from deformsim.config import CONFIRM_IMAGES, Config, RenderConfig
 from deformsim.dataset.layout import Layout
 from deformsim.errors import UserError
 from deformsim.generate.identity import data_settings, input_digests
@@ -66,6 +66,13 @@ def check_probe(mesh: Path, probed: dict) -> list[float]:
     return size
 
 
+def render_seconds(r: RenderConfig) -> float:
+    """About how long one image of render settings ``r`` (a config's ``render``) takes on a 2-core machine
+    (docs/benchmarks.md): a shadow or surface scene is one more render."""
+    scenes = int(r.shadow) + int(r.surface is not None)
+    return (1.5 + 2e-6 * r.resolution**2 * r.samples) * (1 + scenes)
+
+
 def check_plan(cfg: Config, yes: bool) -> None:
     """A plan of more than :data:`~deformsim.config.CONFIRM_IMAGES` images needs ``yes``: else one line with its
     estimated render time and disk (from docs/experiments/timings.md's 2-core machine)."""
@@ -74,7 +81,7 @@ def check_plan(cfg: Config, yes: bool) -> None:
         return
     r = cfg.render
     pixels, scenes = r.resolution**2, int(r.shadow) + int(r.surface is not None)  # the extra renders per image
-    seconds = n * (1.5 + 2e-6 * pixels * r.samples) * (1 + scenes)
+    seconds = n * render_seconds(r)
     disk = n * pixels * (0.65 * (3 + scenes) + (1.5 if r.dense else 0))  # bytes of PNG per pixel of each kind
     raise UserError(f"generate.n {n} is more than {CONFIRM_IMAGES} images: about {seconds / 3600:,.0f} hours of "
                     f"rendering on a 2-core machine and {disk / 1e9:,.0f} GB of disk; pass --yes to start it")

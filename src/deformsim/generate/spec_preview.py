@@ -15,6 +15,7 @@ from deformsim.config import Config, load_config
 from deformsim.dataset.contact_sheet import grid
 from deformsim.dataset.layout import Layout, image_id
 from deformsim.generate.backend import worker_setup
+from deformsim.generate.refusals import render_seconds
 from deformsim.generate.stage import prepare
 from deformsim.log import get_logger, progress_bar
 from deformsim.sampling import SampleParams, sample_params
@@ -24,6 +25,8 @@ from deformsim.spec.simulation import entry_names
 log = get_logger(__name__)
 
 BAKE_SECONDS_PER_ENTRY = 13  # measured on 2 cores (docs/experiments/bank.md)
+WORKER_START_S = 10  # a Blender worker's start and scene setup, on 2 cores
+SHEET_TILE = 128  # pixels: the least a tile is shown at, so that its caption reads whole
 REST_GREY, DEFORMED_RED = (60, 60, 60), (207, 34, 46)
 
 FIXED_VIEW = {"camera.azimuth_quadrants": [[40, 40]], "pose.tilt": [0, 0], "camera.polar": [62, 62],
@@ -47,9 +50,12 @@ def preview_states(base: SampleParams, openings: bool, bank: list[str] = ()) -> 
     return [(name, dataclasses.replace(p, index=i)) for i, (name, p) in enumerate(states)]
 
 
-def plan_message(states: list[tuple[str, SampleParams]], bake_entries: int) -> str:
-    """What the preview is about to do: its tiles, and the bank bake first when one is due."""
-    text = f"spec preview: {len(states)} tiles ({', '.join(name for name, _ in states)})"
+def plan_message(states: list[tuple[str, SampleParams]], bake_entries: int, tile_seconds: float) -> str:
+    """What the preview is about to do: its tiles and about how long they take (``tile_seconds`` each, after a
+    worker's start), and the bank bake first when one is due."""
+    total = WORKER_START_S + len(states) * tile_seconds
+    when = f"about {max(1, round(total / 60))} min" if total >= 90 else f"about {max(10, round(total, -1)):.0f} s"
+    text = f"spec preview: {len(states)} tiles ({', '.join(name for name, _ in states)}), {when} on 2 cores"
     if bake_entries:
         minutes = max(1, round(bake_entries * BAKE_SECONDS_PER_ENTRY / 60))
         text += (f"; the simulated bank is not baked yet: baking its {bake_entries} scenarios first, about "
@@ -77,7 +83,7 @@ def render_preview(spec_path: Path | None, mesh: Path | None, out: Path, resolut
         states = preview_states(base, openings=bool(spec.openings.seal),
                                 bank=entry_names(spec.simulation) if bank else [])
         to_bake = len(entry_names(spec.simulation)) if bank and not is_complete(bank_dir(spec, mesh), spec) else 0
-        log.info(plan_message(states, to_bake))
+        log.info(plan_message(states, to_bake, render_seconds(cfg.render)))
         if bank:
             bake(spec, spec_path, mesh, progress=progress)
         layout = Layout(Path(tmp))
@@ -96,7 +102,7 @@ def render_preview(spec_path: Path | None, mesh: Path | None, out: Path, resolut
                     bar.update(1)
         finally:
             worker.close()
-    sheet = grid(images, captions, tile=resolution, cols=5)
+    sheet = grid(images, captions, tile=max(resolution, SHEET_TILE), cols=5)
     with atomic_path(out) as t:
         sheet.save(t, format="PNG")
     return out

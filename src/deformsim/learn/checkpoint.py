@@ -62,6 +62,18 @@ def write(path: Path, obj) -> None:
                                 "then rerun the same command") from None
 
 
+def _elsewhere(folder: Path) -> str:
+    """Where the model is when ``folder`` is a run or a report folder rather than a model's."""
+    from deformsim.report.headline import RUN_MODEL, headline_model
+
+    if (folder / RUN_MODEL / MODEL_FILE).is_file():
+        return f"a run folder: its model is {folder / RUN_MODEL}"
+    report = headline_model(folder)
+    if report is not None:
+        return f"a report folder: the model of its headline test is {report}"
+    return f"expected {MODEL_FILE}; run deformsim train"
+
+
 def read_checkpoint(model_path: str | Path) -> tuple[dict, Path]:
     """The saved dict of ``model.pt`` (or of a folder holding it) and its path, checked as :func:`restore` will use
     it: a valid training config, finite weights, and at most :data:`MAX_OUTPUTS` outputs; one line naming the file
@@ -70,7 +82,7 @@ def read_checkpoint(model_path: str | Path) -> tuple[dict, Path]:
     if path.is_dir():
         path = path / MODEL_FILE
     if not path.is_file():
-        raise UserError(f"no trained model at {model_path} (expected {MODEL_FILE}; run deformsim train)")
+        raise UserError(f"no trained model at {model_path} ({_elsewhere(Path(model_path))})")
     try:
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # torch raises several types for corrupt or foreign files

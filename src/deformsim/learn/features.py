@@ -70,7 +70,7 @@ def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, pro
     was_training = model.training
     model.eval()
     out = []
-    with torch.inference_mode(), progress_bar(len(loader), "frozen layers", progress) as bar:
+    with torch.inference_mode(), progress_bar(len(loader), "images", progress) as bar:
         for x in loader:
             out.append(model.stem(x.to(device)).cpu())
             bar.update()

@@ -65,7 +65,8 @@ class OnnxPredictor:
             raise UserError(f"{self.path} predicts train.target {self.target}, not label")
         return self.predict_outputs(paths)
 
-    def predict(self, paths: list[str | Path]) -> tuple[np.ndarray, list[str]]:
-        """Probabilities and class names at the training threshold."""
+    def predict(self, paths: list[str | Path], threshold: float | None = None) -> tuple[np.ndarray, list[str]]:
+        """Probabilities and class names at ``threshold`` (default: the training threshold)."""
         p = self.predict_proba(paths)
-        return p, [self.classes[int(v >= self.cfg.threshold)] for v in p]
+        cut = self.cfg.threshold if threshold is None else threshold
+        return p, [self.classes[int(v >= cut)] for v in p]

@@ -57,7 +57,7 @@ class Predictor:
         paths, bs, crop = [str(p) for p in paths], self.cfg.batch_size, self.cfg.crop
         if not self.cfg.cache_features:
             loader = torch.utils.data.DataLoader(ImageSet(paths, self.cfg.image_size, crop=crop, flip=flip), batch_size=bs)
-            with progress_bar(len(loader), "frozen layers", self._show_progress) as bar:
+            with progress_bar(len(loader), "images", self._show_progress) as bar:
                 for x in loader:
                     yield self.model.stem(x.to(self.device))
                     bar.update()
@@ -122,10 +122,11 @@ class Predictor:
                                                    align_corners=False)[:, 0].numpy() for m in maps]
         return np.mean(resized, axis=0)
 
-    def predict(self, paths: list[str | Path]) -> tuple[np.ndarray, list[str]]:
-        """Probabilities and class names at the training threshold."""
+    def predict(self, paths: list[str | Path], threshold: float | None = None) -> tuple[np.ndarray, list[str]]:
+        """Probabilities and class names at ``threshold`` (default: the training threshold)."""
         p = self.predict_proba(paths)
-        return p, [self.classes[int(v >= self.cfg.threshold)] for v in p]
+        cut = self.cfg.threshold if threshold is None else threshold
+        return p, [self.classes[int(v >= cut)] for v in p]
 
     @torch.inference_mode()
     def features(self, paths: list[str | Path], layer: str = "penultimate") -> np.ndarray:

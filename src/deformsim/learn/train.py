@@ -229,9 +229,9 @@ def _log_summary(history: list[dict], cfg: TrainConfig, n_train: int, n_val: int
     last = history[-1]
     metric = last.get("metric", "accuracy")
     score, val = (last["acc"], last["val_acc"]) if cfg.target == "label" else (last["score"], last["val_score"])
-    log.info("trained %d epoch%s on %d images in %.1f s: loss %.3f, %s %.3f, validation %s %s (%d images)",
-             len(history), "" if len(history) == 1 else "s", n_train, seconds, last["loss"], metric, score, metric,
-             "-" if val is None else f"{val:.3f}", n_val)
+    checked = f", validation {metric} {val:.3f} ({n_val} images)" if val is not None and n_val else ""
+    log.info("trained %d epoch%s on %d images in %.1f s: loss %.3f, %s %.3f%s", len(history),
+             "" if len(history) == 1 else "s", n_train, seconds, last["loss"], metric, score, checked)
 
 
 def stalled(history: list[dict], y: torch.Tensor, cfg: TrainConfig) -> str | None:
@@ -364,6 +364,7 @@ def _train(table: pd.DataFrame, cfg: TrainConfig, outputs: list[str], progress: 
     ensemble = None
     if len(nets) > 1 and held is not None:
         ensemble = _out_of_bag(held, len(nets), y, cfg)
-        log.info("ensemble of %d: out-of-bag accuracy %s on %d images", len(nets),
-                 "-" if ensemble["val_acc"] is None else f"{ensemble['val_acc']:.3f}", ensemble["n_val"])
+        if ensemble["val_acc"] is not None and ensemble["n_val"]:  # else every image trained a member: no score
+            log.info("ensemble of %d: out-of-bag accuracy %.3f on %d images", len(nets), ensemble["val_acc"],
+                     ensemble["n_val"])
     return _Trained(model, cfg, weights, history, splits, adapted, ensemble, held)

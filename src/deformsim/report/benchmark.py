@@ -129,7 +129,7 @@ def _runs_table(results: dict, labels: list[int] | None) -> str:
 def _often_wrong(results: dict) -> str:
     """Per variant, every real photo that a run got wrong, most often wrong first."""
     blocks = "".join(f"<h3>{escape(v)}: {len(photos)} of {len(results['real_paths'])} photos wrong in a run</h3>"
-                     + wrong_table(photos, counts=True) for v, photos in often_wrong(results).items())
+                     + wrong_table(photos) for v, photos in often_wrong(results).items())
     return ("<h2>Photos most often wrong</h2><p class=note>Each real photo that at least one run judged wrong: in "
             "how many runs of its variant, and its mean P(deformed) over them (threshold "
             f"{results['settings']['train']['threshold']:g}); each file name links to the full-size photo. A photo "

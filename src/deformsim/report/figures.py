@@ -99,7 +99,7 @@ def reliability_png(diagrams: dict[str, dict]) -> bytes:
     plt = _pyplot()
     cols = min(len(diagrams), 4)
     rows = -(-len(diagrams) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 3.4 * rows), dpi=110, squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 3.4 * rows), dpi=150, squeeze=False)
     for ax, (name, d) in zip(axes.flat, diagrams.items()):
         full = [b for b in d["bins"] if b["n"]]
         lo, width = [b["lo"] for b in full], [b["hi"] - b["lo"] for b in full]
@@ -109,11 +109,12 @@ def reliability_png(diagrams: dict[str, dict]) -> bytes:
         ax.bar(lo, [p - f for p, f in zip(prob, freq)], width, bottom=freq, align="edge", fill=False, hatch="////",
                edgecolor="#d0342c", lw=0.6)
         for b in full:
-            ax.text((b["lo"] + b["hi"]) / 2, max(b["freq"], b["prob"]) + 0.02, str(b["n"]), ha="center", fontsize=7)
-        ax.set_title(f"{_text(name)}\nECE {d['ece']:.3f} · {d['n']} predictions", fontsize=9)
-        ax.set(xlim=(0, 1), ylim=(0, 1.1), xlabel="predicted P(deformed)")
-        ax.set_ylabel("observed share deformed", fontsize=8)
-        ax.tick_params(labelsize=7)
+            ax.text((b["lo"] + b["hi"]) / 2, max(b["freq"], b["prob"]) + 0.02, str(b["n"]), ha="center", fontsize=9)
+        ax.set_title(f"{_text(name)}\nECE {d['ece']:.3f} · {d['n']} predictions", fontsize=11)
+        ax.set(xlim=(0, 1), ylim=(0, 1.1))
+        ax.set_xlabel("predicted P(deformed)", fontsize=10)
+        ax.set_ylabel("observed share deformed", fontsize=10)
+        ax.tick_params(labelsize=9)
         for side in ("top", "right"):
             ax.spines[side].set_visible(False)
     for ax in axes.flat[len(diagrams):]:

@@ -16,6 +16,7 @@ from deformsim.evaluate.experiments import low_synthetic
 from deformsim.report.dense_html import dense_section
 from deformsim.report.fewshot_html import fewshot_section
 from deformsim.report.figures import curves_png, data_uri, png_file_uri, reliability_png
+from deformsim.report.headline import headline, results
 from deformsim.report.predictions import predictions_section, thumb
 from deformsim.report.settings import settings_section
 
@@ -40,12 +41,13 @@ h2{font-size:18px;margin:34px 0 10px;border-bottom:2px solid #dfe4ec;padding-bot
 .big.below{color:#b3261e}
 .ci{display:block;font-size:11px;font-weight:400;color:#5b6475}
 .scroll{overflow-x:auto;max-width:100%}
-.sub,.note,.kv td,.wrong td.name{overflow-wrap:anywhere}
+.sub,.note,.kv td+td,.wrong td.name{overflow-wrap:anywhere}
 .mid{font-size:30px;font-weight:600;color:#2c4a7a}
 table.t2{border-collapse:collapse;width:100%;background:#fff;font-variant-numeric:tabular-nums}
 .t2 th,.t2 td{padding:7px 10px;text-align:center;border-bottom:1px solid #e6e9ef}
 .t2 th{background:#eef1f6;font-weight:600}
-.t2 td:first-child,.t2 th:first-child{text-align:left}
+.t2 .v{text-align:left}
+.hint{display:none;color:#5b6475;font-size:12px;margin:4px 0 0}
 .t2 .grp{border-left:2px solid #c9d1de}
 .best{font-weight:700}
 .cms{display:flex;flex-wrap:wrap;gap:14px}
@@ -68,7 +70,7 @@ table.t2{border-collapse:collapse;width:100%;background:#fff;font-variant-numeri
 .missing{width:120px;height:120px;background:#ddd;display:flex;align-items:center;justify-content:center;color:#777}
 .kv{border-collapse:collapse;font-size:13px}
 .kv td{padding:3px 14px 3px 0;border-bottom:1px solid #e6e9ef;vertical-align:top}
-.kv td:first-child{color:#5b6475}
+.kv td:first-child{color:#5b6475;min-width:8em;overflow-wrap:normal;hyphens:none}
 code{font-size:12px}
 .warn{background:#fdecea;border-left:5px solid #b3261e;border-radius:6px;padding:10px 14px;margin:16px 0 0}
 pre.yaml{background:#fff;border-radius:8px;padding:10px 14px;font-size:12px;overflow-x:auto}
@@ -76,7 +78,8 @@ table.wrong{border-collapse:collapse;background:#fff;font-size:13px;width:100%}
 .wrong td,.wrong th{padding:4px 8px;border-bottom:1px solid #e6e9ef;text-align:left;vertical-align:middle}
 .wrong img{width:64px;height:64px;object-fit:contain;background:#222;border-radius:4px;display:block}
 @media (max-width:640px){main{padding:16px 12px 40px}.big{font-size:44px}.plots.two img{width:100%}
-  .t2 th,.t2 td{padding:5px 6px;font-size:13px}
+  .t2 th,.t2 td{padding:5px 6px;font-size:13px}.hint{display:block}
+  .t2 .v{position:sticky;left:0;z-index:1;background:#fff;box-shadow:2px 0 3px #0001}.t2 th.v{background:#eef1f6}
   .hero .card{min-width:0;flex-basis:100%}.thumb.cam{width:calc(50% - 17px)}
   .thumb.cam img,.thumb.cam .missing{width:100%;height:auto;aspect-ratio:1}}
 """
@@ -118,24 +121,8 @@ def _shade(x: float) -> str:
     return f"hsl({int(4 + 126 * t)},60%,{92 - 8 * t:.0f}%)"
 
 
-def _results(metrics: dict) -> list[tuple[str, str, dict]]:
-    """(variant, part, result) for every experiment that ran."""
-    return [
-        (v, part, e[part]) for v, e in metrics["variants"].items() for part, _ in PARTS if "metrics" in e.get(part, {})
-    ]
-
-
-def _headline(metrics: dict) -> tuple[str, str, dict] | None:
-    ran = _results(metrics)
-    for want in ("real", "split"):
-        cands = [r for r in ran if r[1] == want]
-        if cands:
-            return max(cands, key=lambda r: r[2]["metrics"]["accuracy"])
-    return None
-
-
 def _hero(metrics: dict) -> str:
-    head = _headline(metrics)
+    head = headline(metrics)
     if head is None:
         return '<div class="card">No experiment ran (see the notes in the table).</div>'
     v, part, r = head
@@ -154,11 +141,12 @@ def _hero(metrics: dict) -> str:
         f'tested on {escape(str(m["n"]))} {"real photographs" if part == "real" else "held-out images"}</div></div>'
     ]
     f1_iv = _interval(m, "f1")
+    shares = " · ".join(f'{k} {_pct(_value(m, k))}' + (f" ({_span(_interval(m, k))})" if _interval(m, k) else "")
+                        for k in ("precision", "recall"))
     cards.append(
         f'<div class="card"><div class="mid">{_pct(_value(m, "f1"))}</div><div>F1 (deformed = positive)</div>'
-        + (f'<div class="sub">95 % interval {_span(f1_iv)} (bootstrap over the images)</div>' if f1_iv else "")
-        + f'<div class="sub">precision {_pct(_value(m, "precision"))} · recall {_pct(_value(m, "recall"))} · '
-        f'threshold {m["threshold"]:g}</div></div>'
+        + (f'<div class="sub">95 % interval {_span(f1_iv)} (Wilson)</div>' if f1_iv else "")
+        + f'<div class="sub">{shares} · threshold {m["threshold"]:g}</div></div>'
     )
     synthetic = metrics["variants"][v].get("split", {}).get("metrics") if part == "real" else None
     extra = f"<br>held-out synthetic accuracy {_pct(synthetic['accuracy'])}" if synthetic else ""
@@ -173,7 +161,7 @@ def _clear_best(metrics: dict) -> set[tuple[str, str, str]]:
     """(variant, part, key) of each value whose 95 % interval lies wholly above every other variant's."""
     out = set()
     for part, _ in PARTS:
-        ran = [(v, r["metrics"]) for v, p, r in _results(metrics) if p == part]
+        ran = [(v, r["metrics"]) for v, p, r in results(metrics) if p == part]
         for k in WITH_INTERVAL:
             ivs = {v: _interval(m, k) for v, m in ran}
             for v, iv in ivs.items():
@@ -185,14 +173,16 @@ def _clear_best(metrics: dict) -> set[tuple[str, str, str]]:
 
 def _table2(metrics: dict) -> str:
     best = _clear_best(metrics)
-    head = "".join(f'<th colspan="4" class="grp">{title}</th>' for _, title in PARTS)
+    real = any(part == "real" for _, part, _ in results(metrics))
+    parts = PARTS[::-1] if real else PARTS  # the real-photo test, the headline, first: on a phone it is on screen
+    head = "".join(f'<th colspan="4" class="grp">{title}</th>' for _, title in parts)
     sub = "".join(
-        f'<th{" class=grp" if i == 0 else ""}>{label}</th>' for _ in PARTS for i, (_, label) in enumerate(KEYS)
+        f'<th{" class=grp" if i == 0 else ""}>{label}</th>' for _ in parts for i, (_, label) in enumerate(KEYS)
     )
     rows = []
     for v, e in metrics["variants"].items():
         cells = []
-        for part, _ in PARTS:
+        for part, _ in parts:
             r = e.get(part)
             if not r or "metrics" not in r:
                 why = r.get("skipped", "") if r else "no real folder given"
@@ -204,12 +194,15 @@ def _table2(metrics: dict) -> str:
                 shade = f' style="background:{_shade(x)}"' if x is not None else ""
                 ci = _span(_interval(r["metrics"], k))
                 cells.append(f'<td class="{cls}"{shade}>{_pct(x)}{f"<span class=ci>{ci}</span>" if ci else ""}</td>')
-        rows.append(f"<tr><td><b>{escape(v)}</b><div class=sub>{escape(str(e['n_images']))} images</div></td>"
+        rows.append(f"<tr><td class=v><b>{escape(v)}</b><div class=sub>{escape(str(e['n_images']))} images</div></td>"
                     f"{''.join(cells)}</tr>")
-    return (f'<div class=scroll><table class="t2"><tr><th rowspan="2">Training variant</th>{head}</tr><tr>{sub}</tr>'
-            f'{"".join(rows)}</table></div><p class=note>Under accuracy and F1: the 95 % interval (Wilson; bootstrap '
-            "over the images). Bold: a value whose interval lies wholly above every other variant's; none is bold "
-            "where the intervals overlap. — : undefined (precision with no image predicted deformed).</p>")
+    hint = "the held-out synthetic columns" if real else "more columns"
+    return (f'<div class=scroll><table class="t2"><tr><th rowspan="2" class=v>Training variant</th>{head}</tr>'
+            f'<tr>{sub}</tr>{"".join(rows)}</table></div><p class=hint>Swipe the table sideways for {hint} →</p>'
+            "<p class=note>Under each value: its 95 % interval (Wilson's: accuracy over the images, precision over "
+            "those predicted deformed, recall over the deformed ones, F1 as TP out of TP + (FP + FN) / 2). Bold: a "
+            "value whose interval lies wholly above every other variant's; none is bold where the intervals overlap. "
+            "— : undefined (precision with no image predicted deformed).</p>")
 
 
 def _confusion(title: str, cm: list[list[int]]) -> str:
@@ -229,7 +222,7 @@ def _confusion(title: str, cm: list[list[int]]) -> str:
 
 
 def _real_results(metrics: dict) -> list[tuple[str, dict]]:
-    return [(v, r) for v, part, r in _results(metrics) if part == "real"]
+    return [(v, r) for v, part, r in results(metrics) if part == "real"]
 
 
 def _calibration(metrics: dict) -> str:
@@ -242,8 +235,9 @@ def _calibration(metrics: dict) -> str:
             "real-test model: the photos binned by predicted P(deformed); each blue bar is the share of its photos "
             "that are deformed (number of photos above it), hatched red its gap to the bin's mean prediction. A "
             "calibrated model follows the dashed diagonal. Expected calibration error (ECE, the photo-weighted mean "
-            f"gap): {eces}.</p><div class=plots><img src='{data_uri(reliability_png(diagrams), 'image/png')}' "
-            "alt='reliability diagrams'></div>")
+            f"gap): {eces}.</p><div class='plots two'>"
+            + "".join(f"<img src='{data_uri(reliability_png({v: d}), 'image/png')}' alt='reliability diagram of "
+                      f"{escape(v)}'>" for v, d in diagrams.items()) + "</div>")
 
 
 def _gradcams(metrics: dict, out_dir: Path) -> str:
@@ -283,7 +277,7 @@ def _settings(metrics: dict) -> str:
     if metrics.get("missing_variants"):
         rows.append(("variants not in the data", ", ".join(metrics["missing_variants"])))
     rows = [(k, escape(str(val))) for k, val in rows]
-    for v, part, r in _results(metrics):
+    for v, part, r in results(metrics):
         rows.append((f"model {v} / {part}", f"<code>{escape(r['model'])}</code> · weights <b>{escape(r['weights'])}"
                      f"</b> · train {r['train_seconds']:.1f} s · predict {r['predict_seconds']:.1f} s"))
     return settings_section(metrics, rows)
@@ -292,7 +286,7 @@ def _settings(metrics: dict) -> str:
 def _samples(metrics: dict) -> str:
     """Per class, a row of real photos (when the headline test is on them) above each variant's synthetic examples
     of that class: the first look at whether the renders resemble the photos."""
-    head = _headline(metrics)
+    head = headline(metrics)
     real = head[2]["predictions"] if head and head[1] == "real" else []
     out = []
     for y, name in enumerate(CLASSES):
@@ -309,7 +303,7 @@ def render_html(metrics: dict, out_dir: Path) -> str:
     """The report page as a string."""
     cms = "".join(
         _confusion(f"{v} · {'real' if part == 'real' else 'synthetic'} test", r["metrics"]["confusion"]["matrix"])
-        for v, part, r in _results(metrics)
+        for v, part, r in results(metrics)
     )
     curves = curves_png({v: (e.get("real") or e.get("split") or {}).get("history") for v, e in metrics["variants"].items()})
     parts = [
@@ -338,7 +332,7 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         "out for validation.</p><div class='plots two'>"
         + "".join(f"<img src='{data_uri(c, 'image/png')}' alt='training curves'>" for c in curves) + "</div>"
         if curves else "",
-        predictions_section(_headline(metrics)),
+        predictions_section(headline(metrics)),
         _settings(metrics),
         "</main></body></html>",
     ]

@@ -12,7 +12,10 @@ from pathlib import Path
 from deformsim.atomic import write_json
 from deformsim.config import TrainConfig
 from deformsim.identity import file_digest, files_digest
+from deformsim.log import get_logger
 from deformsim.outputs import check_apart, check_folder_target, check_outside, claim, replacing
+
+log = get_logger(__name__)
 
 
 def real_digest(real: Path | None) -> str | None:
@@ -20,6 +23,29 @@ def real_digest(real: Path | None) -> str | None:
     from deformsim.dataset.real import real_table
 
     return files_digest(list(real_table(real)["path"]), real) if real is not None else None
+
+
+def present_variants(data: Path, cfg: TrainConfig) -> tuple[TrainConfig, str | None]:
+    """``cfg`` training the variants of dataset ``data`` it names; when some are not in ``data``, the composited
+    variants that are take their place (as ``deformsim run`` composites ``procedural`` without background photos).
+    Also a warning naming the variants that change, or those left untrained, and ``--variants``, which picks them;
+    None when there is nothing to say."""
+    from deformsim.dataset.layout import RENDER_KINDS
+    from deformsim.dataset.variants import list_variants
+
+    available = list_variants(data)
+    missing = [v for v in cfg.variants if v not in available]
+    extra = [v for v in available if v not in RENDER_KINDS and v not in cfg.variants]
+    if not extra:
+        return cfg, None
+    if missing:
+        chosen = [v for v in cfg.variants if v in available] + extra
+        return cfg.model_copy(update={"variants": chosen}), (
+            f"variant{'s' * (len(missing) > 1)} {', '.join(missing)} not in {data}: training on {', '.join(chosen)} "
+            "instead (--variants picks)")
+    return cfg, (f"variant{'s' * (len(extra) > 1)} {', '.join(extra)} of {data} not trained (train.variants: "
+                 f"{', '.join(cfg.variants)}): add {'them' if len(extra) > 1 else 'it'} with --variants "
+                 f"{','.join([*cfg.variants, *extra])}")
 
 
 def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = None, overwrite: bool = False,
@@ -42,6 +68,7 @@ def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = Non
     check_apart(out, "--out", {"dataset": data, "real photos": real, "few-shot results": fewshot})
     check_outside(out, "--out", {"real photos": real})  # its plots would be read as photos
     read_manifest(data)  # a clear error when ``data`` is not a dataset
+    cfg, variants_note = present_variants(data, cfg)
     layout = Layout(data)
     manifests = [layout.manifest, *made_manifests(data)]
     identity = {"settings": cfg.model_dump(mode="json"), "inputs": {"data": files_digest(manifests, data),
@@ -53,6 +80,8 @@ def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = Non
         shots = read_results(fewshot)
         identity["inputs"]["fewshot"] = file_digest(fewshot)
     claim(out, "report", identity, overwrite)
+    if variants_note is not None:
+        log.warning("%s", variants_note)
     with replacing(out, identity, "report") as tmp:
         metrics = run_experiments(data, cfg, tmp, real_dir=real, progress=progress)
         if shots is not None:
