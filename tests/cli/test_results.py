@@ -82,7 +82,7 @@ def test_sim2real_prints_the_summary(monkeypatch, tmp_path):
 @pytest.fixture
 def long_paths(monkeypatch, tmp_path):
     paths = [tmp_path / ("x" * 150) / f"photo_{i}.png" for i in range(2)]
-    monkeypatch.setattr(Engine, "predict", lambda self, model, images, csv, threshold=None: Prediction(
+    monkeypatch.setattr(Engine, "predict", lambda self, model, images, csv, threshold=None, adapt=None: Prediction(
         paths, {"p_deformed": [0.25, 0.75], "label": ["intact", "deformed"]}, ("P(deformed)", "label"), 0.5))
     return paths
 
