@@ -21,6 +21,8 @@ from deformsim.schema import first_error, shown
 SCHEMA_VERSION = 1
 
 Probability = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
+Count = Annotated[StrictInt, Field(ge=0)]
+Pair = Annotated[list[Count], Field(min_length=2, max_length=2)]
 
 
 class _Part(BaseModel):
@@ -35,6 +37,7 @@ class Real(_Part):
     precision: Probability
     recall: Probability
     auc: Optional[Probability] = None
+    confusion: Annotated[list[Pair], Field(min_length=2, max_length=2)]  # [[TN, FP], [FN, TP]]
 
 
 class Synthetic(_Part):
