@@ -1,7 +1,8 @@
 """Memory: the peak of the commands a hostile size could blow up, against their 2 GB targets, and a Blender worker's
 memory over a long run.
 
-``targets`` (each command in its own process; the peak is its maximum resident memory, ``ru_maxrss``):
+``targets`` (each command in its own process; the peak is its resident high-water mark, VmHWM, which unlike
+``ru_maxrss`` a child does not inherit from this process):
 
 - ``predict`` with a model whose saved config has ``image_size: 1024`` (VGG-16, the default backbone; its weights do
   not change the memory) on 29 photos of ``../shared/data/real_cans_dev`` (generated images when it is absent);
@@ -33,17 +34,17 @@ BAG_PHOTOS = 200_000
 
 # Runs the CLI in this process and prints its peak resident memory (KiB) on the last line of stderr.
 PEAK = """
-import resource, runpy, sys
+import runpy, sys
 sys.argv = ["deformsim", *sys.argv[1:]]
 try:
     runpy.run_module("deformsim.cli", run_name="__main__")
 finally:
-    print("peak-kib", resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)
+    print("peak-kib", [l.split()[1] for l in open("/proc/self/status") if l.startswith("VmHWM")][0], file=sys.stderr)
 """
 
 # generate with a stand-in worker that ends the process (printing the peak) when handed its first sample.
 FIRST_RENDER = """
-import os, resource, sys
+import os, sys
 from deformsim.generate import local
 
 class FirstRender:
@@ -52,7 +53,8 @@ class FirstRender:
     def start(self, setup, timeout=None): return {"device": "stand-in", "camera_scale": 1.0}
     def render(self, params):
         print("first sample", params["index"], file=sys.stderr)
-        print("peak-kib", resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr, flush=True)
+        hwm = [l.split()[1] for l in open("/proc/self/status") if l.startswith("VmHWM")][0]
+        print("peak-kib", hwm, file=sys.stderr, flush=True)
         os._exit(0)
     def close(self): pass
     kill = close

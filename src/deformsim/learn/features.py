@@ -162,4 +162,5 @@ def cached_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, 
             t = t.clone()  # a view would save the whole batch's storage
             checkpoint.write(f, t)
             found[f] = t
+        del feats, t  # before the stack: two copies at most
     return torch.stack([found[f] for f in files])
