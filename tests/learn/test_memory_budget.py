@@ -59,3 +59,16 @@ def test_passes_give_the_activations_of_one_batch(blobs, tmp_path, monkeypatch):
     monkeypatch.setattr(features, "PASS_BUDGET", image_bytes(model, 96) * 2)  # two images per pass
     assert pass_size(model, 96, 6) == 2
     torch.testing.assert_close(run_stem(model, paths, 96, batch_size=6), whole, rtol=1e-5, atol=1e-5)
+
+
+def test_training_without_the_cache_sends_its_batches_through_the_stem_in_passes(blobs, tmp_path, monkeypatch):
+    from deformsim.learn.train import _Inputs
+
+    model = _model(tmp_path, 64)
+    monkeypatch.setattr(features, "PASS_BUDGET", image_bytes(model, 64) * 3)  # three images per pass
+    cfg = TrainConfig(backbone="mobilenet_v2", weights="none", image_size=64, batch_size=8, augment=True)
+    inputs = _Inputs(model, list(blobs["path"][:8]), cfg, torch.device("cpu"), progress=False)
+    seen, stem = [], model.stem
+    monkeypatch.setattr(model, "stem", lambda x: seen.append(len(x)) or stem(x))
+    z = inputs(torch.arange(8), train=True)
+    assert seen == [3, 3, 2] and z.shape[0] == 8
