@@ -19,7 +19,7 @@ from deformsim.log import progress_bar
 
 LAYERS = ("penultimate", "pooled")
 CHUNK = 512  # images whose cached stem activations are held in memory at once, at most
-HELD_BUDGET = 128 << 20  # bytes of stem activations held at once (twice while they are stacked)
+HELD_BUDGET = 64 << 20  # bytes of stem activations held at once (twice while they are stacked)
 
 
 class Predictor:
