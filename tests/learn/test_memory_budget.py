@@ -72,3 +72,9 @@ def test_training_without_the_cache_sends_its_batches_through_the_stem_in_passes
     monkeypatch.setattr(model, "stem", lambda x: seen.append(len(x)) or stem(x))
     z = inputs(torch.arange(8), train=True)
     assert seen == [3, 3, 2] and z.shape[0] == 8
+
+
+def test_the_pass_size_of_a_model_in_training_at_a_tiny_size(tmp_path):
+    model = _model(tmp_path, 32)
+    model.train()  # its batch norms would refuse one image of 1 x 1 activations while training
+    assert pass_size(model, 32, 8) == 8

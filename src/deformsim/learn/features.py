@@ -75,7 +75,7 @@ def image_bytes(model: DeformNet, size: int) -> int:
     input and every activation inside it (a block keeps its inner activations until it returns)."""
     key = (model.backbone, model.cut, size)
     if key not in _IMAGE_BYTES:
-        stem = copy.deepcopy(model.features[: model.cut]).to("meta")
+        stem = copy.deepcopy(model.features[: model.cut]).to("meta").eval()
         held: list[int] = []
 
         def nbytes(t) -> int:
