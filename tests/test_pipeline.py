@@ -94,7 +94,7 @@ def test_unknown_family_is_named(carton, tmp_path):
 @pytest.mark.parametrize("name, content, needle", [
     ("missing.stl", None, "mesh file not found"),
     ("empty.stl", b"", "is empty"),
-    ("noise.stl", bytes(range(256)) * 3, "no faces"),
+    ("noise.stl", bytes(range(256)) * 3, "not a valid STL"),
     ("points.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\n", "no faces"),
     ("part.step", b"ISO-10303-21;", "unsupported format"),
 ])

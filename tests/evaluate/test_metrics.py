@@ -107,3 +107,59 @@ def test_auc_ranks_whatever_the_threshold():
     rows = np.array([[0.1, 0.3, 0.3, 0.2], [0.9, 0.8, 0.1, 0.2]])
     assert roc_auc(rows, y == 1).tolist() == [0.625, 0.0]
     assert compute_metrics([0, 0], [0.1, 0.9])["auc"] is None
+
+
+def _pairwise_auc(prob: np.ndarray, deformed: np.ndarray) -> np.ndarray:
+    """The AUC counted over every deformed-intact pair (ties half): the definition the rank statistic must equal."""
+    pos, neg = prob[..., deformed][..., :, None], prob[..., ~deformed][..., None, :]
+    return (pos > neg).mean((-2, -1)) + 0.5 * (pos == neg).mean((-2, -1))
+
+
+def test_rank_auc_equals_the_pairwise_count_with_ties():
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        n = int(rng.integers(2, 80))
+        prob = rng.integers(0, int(rng.integers(2, 12)), size=(3, n)) / 10  # many ties, within and across classes
+        deformed = rng.random(n) < rng.uniform(0.1, 0.9)
+        if not deformed.any() or deformed.all():
+            assert np.isnan(roc_auc(prob, deformed)).all()
+            continue
+        assert np.array_equal(roc_auc(prob, deformed), _pairwise_auc(prob, deformed))
+
+
+def test_auc_per_row_with_labels_per_row():
+    rng = np.random.default_rng(3)
+    prob, deformed = rng.random((4, 2, 30)).round(1), rng.random((4, 1, 30)) < 0.5
+    got = roc_auc(prob, deformed)
+    assert got.shape == (4, 2)
+    for b in range(4):
+        assert np.array_equal(got[b], _pairwise_auc(prob[b], deformed[b, 0]))
+
+
+def _peak_mib(fn) -> float:
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        fn()
+        return tracemalloc.get_traced_memory()[1] / 2**20
+    finally:
+        tracemalloc.stop()
+
+
+def test_auc_memory_grows_with_the_photos_not_their_pairs():
+    rng = np.random.default_rng(0)
+    prob, deformed = rng.random((2, 10_000)), rng.random(10_000) < 0.6  # 24 million pairs per row
+    assert _peak_mib(lambda: roc_auc(prob, deformed)) < 10
+
+
+def test_metrics_of_many_photos_hold_bounded_memory():
+    rng = np.random.default_rng(0)
+    y = (rng.random(5_000) < 0.5).astype(int)
+    prob = np.clip(y + rng.normal(0, 0.4, y.size), 0, 1)
+    assert _peak_mib(lambda: compute_metrics(y, prob)) < 60  # a bootstrap of 2000 resamples at once: 240 MiB
+
+
+def test_a_nan_probability_is_named():
+    with pytest.raises(UserError, match=r"got nan \(image 1"):
+        compute_metrics([0, 1, 1], [0.2, float("nan"), 0.7])

@@ -38,10 +38,15 @@ def images_on_disk(out: Path) -> dict[str, int]:
     return {kind: len(list((out / "images" / kind).glob("*.png"))) for kind in RENDER_KINDS}
 
 
+def binary_stl_of(first: int, triangles: int) -> bytes:
+    """A binary STL whose first byte (the fake workers' shade) is ``first``."""
+    return bytes([first]).ljust(80, b"\0") + triangles.to_bytes(4, "little") + b"\0" * 50 * triangles
+
+
 @pytest.fixture
 def carton_part(tmp_path) -> Path:
     mesh = tmp_path / "part.stl"
-    mesh.write_bytes(b"\x10solid part" + b"\0" * 100)
+    mesh.write_bytes(binary_stl_of(0x10, 1))
     return mesh
 
 
@@ -56,7 +61,7 @@ def test_a_changed_mesh_is_refused_and_overwrite_renders_all_anew(monkeypatch, t
     use_fakes(monkeypatch)
     out = tmp_path / "D"
     generate(cfg_for(carton_part, 4), out, progress=False)
-    carton_part.write_bytes(b"\x80solid wider part" + b"\0" * 300)  # same path, other part
+    carton_part.write_bytes(binary_stl_of(0x80, 3))  # same path, other part
     with pytest.raises(UserError, match="other contents of its mesh .*part.stl.*--overwrite"):
         generate(cfg_for(carton_part, 8), out, progress=False)
     assert len(read_manifest(out)) == 4  # untouched

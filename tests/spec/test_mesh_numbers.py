@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import struct
+import time
 
 import numpy as np
 import pytest
 
+from deformsim.errors import UserError
 from deformsim.spec.mesh_numbers import nonfinite_vertices
+from deformsim.spec.model import check_mesh_file
 
 
 def binary_stl(vertex: tuple[float, float, float]) -> bytes:
@@ -32,3 +35,48 @@ def test_nonfinite_vertices_are_found(tmp_path, name, content, bad):
     path = tmp_path / name
     path.write_bytes(content)
     assert nonfinite_vertices(path) is bad
+
+
+def _sparse(path, size: int, head: bytes = b""):
+    with open(path, "wb") as f:
+        f.write(head)
+        f.truncate(size)  # a hole: no disk used, nothing to read but zeros
+    return path
+
+
+def test_a_huge_sparse_stl_is_refused_before_it_is_read(tmp_path):
+    from typer.testing import CliRunner
+
+    from deformsim.cli.app import app
+    from tests.util import CARTON_SPEC
+
+    big = _sparse(tmp_path / "big.stl", 3 << 30)
+    t0 = time.perf_counter()
+    res = CliRunner().invoke(app, ["spec", "check", str(CARTON_SPEC), "--object", str(big)])
+    assert res.exit_code in (1, 2) and "is 3,072 MiB: more than the 1,024 MiB a .stl part may be" in res.output, res.output
+    assert time.perf_counter() - t0 < 5  # reading it took 20 s
+
+
+@pytest.mark.parametrize("head, size, needle", [
+    (b"\0" * 80 + struct.pack("<I", 3), 200 << 20, "its header counts 3 triangles, 234 bytes, but the file holds 209,715,200"),
+    (b"\0" * 80 + struct.pack("<I", 0), 84, "has no faces"),
+    (b"\0" * 40, 40, "shorter than a binary STL's header"),
+], ids=["count", "none", "short"])
+def test_an_stl_whose_size_its_header_does_not_give_is_one_line(tmp_path, head, size, needle):
+    path = _sparse(tmp_path / "part.stl", size, head)
+    with pytest.raises(UserError, match=needle):
+        check_mesh_file(path)
+
+
+def test_a_valid_binary_or_ascii_stl_passes_the_size_checks(tmp_path):
+    (tmp_path / "b.stl").write_bytes(binary_stl((0, 1, 0)))
+    (tmp_path / "a.stl").write_bytes(b"solid x\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n")
+    for name in ("a.stl", "b.stl"):
+        assert check_mesh_file(tmp_path / name) == tmp_path / name
+
+
+@pytest.mark.parametrize("name", ["big.obj", "big.ply", "big.glb", "big.fbx", "big.gltf"])
+def test_every_mesh_format_has_a_size_bound(tmp_path, name):
+    path = _sparse(tmp_path / name, (1 << 30) + 1)
+    with pytest.raises(UserError, match="MiB a .* part may be"):
+        check_mesh_file(path)

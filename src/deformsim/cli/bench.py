@@ -65,8 +65,8 @@ def register(app: typer.Typer) -> None:
         baseline: Path = typer.Option(..., "--baseline", help="the results to compare with, on the same photos"),
     ) -> None:
         """Print each metric's paired difference between two sim2real benchmarks, with 95 % intervals."""
-        from deformsim.evaluate.benchmark import read_results
         from deformsim.evaluate.paired import compare as paired
+        from deformsim.evaluate.results import read_results
 
         new = read_results(results)
         new["baseline"] = {"results": str(baseline), "comparison": paired(new, read_results(baseline))}
@@ -111,7 +111,7 @@ def bag(results: Path = typer.Argument(..., help="a benchmark's results.json (or
 def _combined(combine, results: list[Path], out: Path) -> None:
     """Combine ``results`` into ``out/results.json`` and ``out/report.html``, then print its summary."""
     from deformsim.atomic import write_json
-    from deformsim.evaluate.benchmark import read_results
+    from deformsim.evaluate.results import read_results
     from deformsim.outputs import check_file_target, check_folder_target
     from deformsim.report.benchmark import write_benchmark_report
 

@@ -28,6 +28,7 @@ from deformsim.atomic import write_json
 from deformsim.config import Config
 from deformsim.errors import UserError
 from deformsim.evaluate.paired import METRICS as REAL_METRICS
+from deformsim.evaluate.results import SCHEMA_VERSION, read_results
 from deformsim.log import get_logger
 
 log = get_logger(__name__)
@@ -107,21 +108,6 @@ def _draws(variant: str, plan: Plan) -> range:
     return range(1) if variant in RENDERED else range(plan.composite_seeds)
 
 
-def read_results(path: Path) -> dict:
-    """A benchmark's ``results.json`` (or the folder holding it), checked enough to compare with; one line if not."""
-    path = Path(path)
-    if path.is_dir():
-        path = path / "results.json"
-    try:
-        results = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise UserError(f"cannot read benchmark results {path}: {getattr(exc, 'strerror', None) or exc}") from None
-    runs = results.get("runs") if isinstance(results, dict) else None
-    if not isinstance(runs, list) or not runs or not all(isinstance(r, dict) and "real_predictions" in r for r in runs):
-        raise UserError(f"{path} holds no benchmark runs with real-photo predictions")
-    return results
-
-
 def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt: Path | None = None,
                   datasets: Path | None = None, progress: bool = True, baseline: Path | None = None) -> dict:
     """Generate (or reuse), composite, train and test every run of ``plan``; write ``out/results.json`` and
@@ -193,6 +179,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
                                            synth))
     share = float(real_df["y"].mean())
     results = {
+        "schema_version": SCHEMA_VERSION,
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "real_dir": str(Path(real).resolve()),
         "real_images": len(real_df),

@@ -20,6 +20,7 @@ from deformsim.config import Config
 from deformsim.errors import UserError
 from deformsim.evaluate.benchmark import aggregate, run_record, trained_on_all
 from deformsim.evaluate.paired import check_same_photos, draw_groups, ensembles, run_key
+from deformsim.evaluate.results import SCHEMA_VERSION
 from deformsim.identity import settings
 from deformsim.outputs import differences
 from deformsim.schema import clip, shown
@@ -52,7 +53,8 @@ def _checked(inputs: list[dict], sources: list[str]) -> None:
 def _results(inputs: list[dict], runs: list[dict], sources: list[str], how: str) -> dict:
     """Results as the benchmark writes them, with the first input's photos and settings; the time is all inputs'."""
     first = inputs[0]
-    out = {k: first[k] for k in ("real_dir", "real_images", "real_paths", "real_labels", "majority_baseline")}
+    out = {"schema_version": SCHEMA_VERSION}
+    out |= {k: first[k] for k in ("real_dir", "real_images", "real_paths", "real_labels", "majority_baseline")}
     out |= {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "plan": {how: sources, "whole": trained_on_all(first)},
             "adapt": None, "settings": first["settings"], "variants": aggregate(runs), "runs": runs,

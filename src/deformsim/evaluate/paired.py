@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from deformsim.errors import UserError
-from deformsim.evaluate.metrics import roc_auc
+from deformsim.evaluate.metrics import resample_blocks, roc_auc
 
 METRICS = ("accuracy", "f1", "precision", "recall", "auc")
 BOOTSTRAP = 2000
@@ -114,19 +114,23 @@ def _pairs(results: dict, baseline: dict, variant: str) -> list[tuple[dict, dict
 
 
 def _interval(new: np.ndarray, base: np.ndarray, y: np.ndarray, threshold: float, rng: np.random.Generator) -> dict:
-    """Observed mean difference per metric and its bootstrap interval over photos and pairs (rows of new/base)."""
+    """Observed mean difference per metric and its bootstrap interval over photos and pairs (rows of new/base); the
+    resamples are scored in blocks of bounded size (:func:`~deformsim.evaluate.metrics.resample_blocks`)."""
     observed = {k: float((scores(new, y, threshold)[k] - scores(base, y, threshold)[k]).mean()) for k in METRICS}
-    boot = {k: np.empty(BOOTSTRAP) for k in METRICS}
+    boot: dict[str, list] = {k: [] for k in METRICS}
     n_pairs, n_photos = new.shape
-    for b in range(BOOTSTRAP):
-        rows = rng.integers(0, n_pairs, n_pairs) if n_pairs > 1 else np.zeros(1, dtype=int)
-        cols = rng.integers(0, n_photos, n_photos)
-        s_new, s_base = scores(new[rows][:, cols], y[cols], threshold), scores(base[rows][:, cols], y[cols], threshold)
+    for block in resample_blocks(BOOTSTRAP, n_pairs * n_photos):
+        draws = [(rng.integers(0, n_pairs, n_pairs) if n_pairs > 1 else np.zeros(1, dtype=int),
+                  rng.integers(0, n_photos, n_photos)) for _ in range(block)]
+        rows, cols = np.stack([r for r, _ in draws])[:, :, None], np.stack([c for _, c in draws])
+        labels = y[cols][:, None, :]
+        s_new, s_base = scores(new[rows, cols[:, None, :]], labels, threshold), scores(base[rows, cols[:, None, :]],
+                                                                                       labels, threshold)
         for k in METRICS:
-            boot[k][b] = (s_new[k] - s_base[k]).mean()
+            boot[k].append((s_new[k] - s_base[k]).mean(-1))
     out = {}
     for k in METRICS:
-        lo, hi = np.nanpercentile(boot[k], [2.5, 97.5])  # NaN: a resample of the photos that lacks a class
+        lo, hi = np.nanpercentile(np.concatenate(boot[k]), [2.5, 97.5])  # NaN: a resample of the photos that lacks a class
         out[k] = {"diff": observed[k], "low": float(lo), "high": float(hi), "clears": bool(lo > 0 or hi < 0)}
     return out
 

@@ -6,13 +6,17 @@ workers; the driver alone writes sample records, so resume, retries and the mani
 
 from __future__ import annotations
 
+import os
 import shutil
+import threading
+from collections import deque
+from collections.abc import Callable
 from pathlib import Path
 
 from deformsim.bank.store import bank_dir
 from deformsim.config import Config
 from deformsim.dataset.layout import Layout
-from deformsim.dataset.manifest import rows_for, write_record
+from deformsim.dataset.manifest import read_record, rows_for, write_record
 from deformsim.dataset.rendered import Rendered
 from deformsim.errors import ResourceError
 from deformsim.log import get_logger
@@ -109,3 +113,47 @@ class Retries:
             return False
         log.warning("sample %d: %s; retrying (%d/%d)", i, reason, self.attempts[i], self.max_retries)
         return True
+
+
+def finished(layout: Layout, n: int) -> set[int]:
+    """The samples below ``n`` with a complete record (:func:`~deformsim.dataset.manifest.read_record`): only the
+    record files there are read, so a new run costs nothing whatever ``n``."""
+    try:
+        names = [e.name for e in os.scandir(layout.samples_dir)]
+    except FileNotFoundError:
+        return set()
+    found = {int(name[:-5]) for name in names if name.endswith(".json") and name[:-5].isdigit()}
+    return {i for i in found if i < n and read_record(layout, i) is not None}
+
+
+class Todo:
+    """The samples of ``range(n)`` still to render, handed out in order as workers ask (a retried one first): no
+    list of them is made, and each sample's parameters are drawn by ``draw`` when it is handed out, so planning
+    holds O(1) memory in ``n``. Thread-safe."""
+
+    def __init__(self, n: int, done: set[int], draw: Callable[[int], SampleParams]):
+        self.n, self.done, self.draw = n, done, draw
+        self._next = 0
+        self._again: deque[int] = deque()
+        self._lock = threading.Lock()
+
+    def __len__(self) -> int:
+        """The samples to render when the run started."""
+        return self.n - len(self.done)
+
+    def take(self) -> int | None:
+        """The next sample to render, or None when every one has been handed out (retries may still come)."""
+        with self._lock:
+            if self._again:
+                return self._again.popleft()
+            while self._next < self.n and self._next in self.done:
+                self._next += 1
+            if self._next >= self.n:
+                return None
+            self._next += 1
+            return self._next - 1
+
+    def again(self, i: int) -> None:
+        """Hand sample ``i`` out once more (a retry)."""
+        with self._lock:
+            self._again.append(i)

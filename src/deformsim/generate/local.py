@@ -7,7 +7,6 @@ partial files; a full disk stops the whole run with one line instead of failing 
 from __future__ import annotations
 
 import errno
-import queue
 import threading
 
 from deformsim.config import Config
@@ -16,6 +15,7 @@ from deformsim.dataset.rendered import Rendered
 from deformsim.errors import ResourceError, UserError
 from deformsim.generate.backend import (
     Retries,
+    Todo,
     disk_full,
     finish_sample,
     log_sizes,
@@ -26,30 +26,26 @@ from deformsim.generate.backend import (
 from deformsim.generate.worker_client import WorkerCrashed, WorkerProcess
 from deformsim.log import get_logger, progress_bar
 from deformsim.parallel import cores_per_worker
-from deformsim.sampling import SampleParams
 
 log = get_logger(__name__)
 
 
-def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], progress: bool) -> tuple[dict[int, str], str]:
-    """Render ``params`` with local worker processes; returns (failed samples with reasons, device)."""
-    n_workers = render_workers(cfg, len(params))
+def run_local(cfg: Config, layout: Layout, todo: Todo, progress: bool) -> tuple[dict[int, str], str]:
+    """Render the samples of ``todo`` with local worker processes; returns (failed samples with reasons, device)."""
+    n_workers = render_workers(cfg, len(todo))
     threads = cfg.render.threads or cores_per_worker(n_workers)
     views = len(cfg.camera.azimuth_quadrants)
-    tasks: queue.Queue = queue.Queue()
-    for i in sorted(params):
-        tasks.put(i)
     retries = Retries(cfg.generate.max_retries)
     stop = threading.Event()
     lock = threading.Lock()
-    remaining = [len(params)]
+    remaining = [len(todo)]
     device = [""]
     errors: list = []  # what stopped the run: a message, or an error to raise as it is
     live: dict[int, object] = {}  # worker slot -> running WorkerProcess, killed on Ctrl-C
     logs = layout.root / "logs"
     logs.mkdir(exist_ok=True)
     since = log_sizes(layout)
-    bar = progress_bar(total=len(params) * views, desc="render", enabled=progress)
+    bar = progress_bar(total=len(todo) * views, desc="render", enabled=progress)
 
     def retry_or_fail(i: int, reason: str) -> None:
         full = disk_full(layout, reason, since=since)
@@ -60,7 +56,7 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
             return
         with lock:
             if retries.retry(i, reason):
-                tasks.put(i)
+                todo.again(i)
             else:
                 remaining[0] -= 1
 
@@ -72,9 +68,9 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
                 with lock:
                     if remaining[0] <= 0:
                         return
-                try:
-                    i = tasks.get(timeout=0.2)
-                except queue.Empty:
+                i = todo.take()
+                if i is None:  # every sample handed out; a retry may still come
+                    stop.wait(0.2)
                     continue
                 if proc is None or rendered >= cfg.generate.recycle_every:
                     if proc is not None:
@@ -87,8 +83,9 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
                     device[0] = ready.get("device", "")
                     camera_scale = float(ready.get("camera_scale", 1.0))
                     rendered = 0
+                params = todo.draw(i)
                 try:
-                    reply = proc.render(params[i].to_dict())
+                    reply = proc.render(params.to_dict())
                 except WorkerCrashed as exc:
                     proc = None
                     if not stop.is_set():  # else we killed it ourselves (Ctrl-C)
@@ -97,7 +94,7 @@ def run_local(cfg: Config, layout: Layout, params: dict[int, SampleParams], prog
                 if "error" in reply:
                     retry_or_fail(i, reply.get("message", "render error"))
                     continue
-                finish_sample(layout, params[i], Rendered.from_dict(reply), camera_scale)
+                finish_sample(layout, params, Rendered.from_dict(reply), camera_scale)
                 rendered += views
                 with lock:
                     remaining[0] -= 1

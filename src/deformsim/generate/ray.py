@@ -24,10 +24,9 @@ from deformsim.dataset.layout import RENDER_KINDS, Layout, image_id
 from deformsim.dataset.rendered import Rendered
 from deformsim.errors import UserError
 from deformsim.extras import require
-from deformsim.generate.backend import Retries, finish_sample, worker_setup
+from deformsim.generate.backend import Retries, Todo, finish_sample, worker_setup
 from deformsim.log import get_logger, progress_bar
 from deformsim.parallel import cores_per_worker, worker_count
-from deformsim.sampling import SampleParams
 
 log = get_logger(__name__)
 
@@ -188,8 +187,8 @@ def connect(address: str | None) -> None:
         raise
 
 
-def run_ray(cfg: Config, layout: Layout, params: dict[int, SampleParams], progress: bool) -> tuple[dict[int, str], str]:
-    """Render ``params`` on Ray actors; returns (failed samples with reasons, device)."""
+def run_ray(cfg: Config, layout: Layout, todo: Todo, progress: bool) -> tuple[dict[int, str], str]:
+    """Render the samples of ``todo`` on Ray actors; returns (failed samples with reasons, device)."""
     require("ray", what="generate.backend ray")
     import ray
     from ray.exceptions import RayActorError
@@ -199,7 +198,7 @@ def run_ray(cfg: Config, layout: Layout, params: dict[int, SampleParams], progre
         connect(cfg.generate.address)
     try:
         cpus = int(ray.cluster_resources().get("CPU", 1))
-        n_actors = worker_count(len(params), cfg.generate.workers, cores=cpus, cores_each=2)
+        n_actors = worker_count(len(todo), cfg.generate.workers, cores=cpus, cores_each=2)
         cpus_per = 1 if cfg.generate.workers else cores_per_worker(n_actors, cpus)
         actor_cls = ray.remote(num_cpus=cpus_per, max_restarts=0)(RenderActor)
         setup = worker_setup(cfg, layout)
@@ -209,19 +208,21 @@ def run_ray(cfg: Config, layout: Layout, params: dict[int, SampleParams], progre
             return actor_cls.remote(setup, cfg.generate.recycle_every, threads, cfg.generate.gather)
 
         views = len(cfg.camera.azimuth_quadrants)
-        todo = sorted(params)
         retries = Retries(cfg.generate.max_retries)
         device = ""
-        running: dict = {}  # future -> (actor, index)
+        running: dict = {}  # future -> (actor, sample parameters)
         idle = [new_actor() for _ in range(n_actors)]
         log.info("rendering on Ray: %d actor(s), %d CPU(s) each", n_actors, cpus_per)
-        with progress_bar(len(params) * views, "render (ray)", progress) as bar:
-            while todo or running:
-                while todo and idle:
-                    actor, i = idle.pop(), todo.pop(0)
-                    running[actor.render.remote(params[i].to_dict())] = (actor, i)
+        with progress_bar(len(todo) * views, "render (ray)", progress) as bar:
+            while True:
+                while idle and (i := todo.take()) is not None:
+                    actor, params = idle.pop(), todo.draw(i)
+                    running[actor.render.remote(params.to_dict())] = (actor, params)
+                if not running:
+                    break
                 ready, _ = ray.wait(list(running), num_returns=1)
-                actor, i = running.pop(ready[0])
+                actor, params = running.pop(ready[0])
+                i = params.index
                 try:
                     reply = ray.get(ready[0])
                 except RayActorError as exc:
@@ -230,11 +231,11 @@ def run_ray(cfg: Config, layout: Layout, params: dict[int, SampleParams], progre
                 idle.append(actor)
                 if "error" in reply:
                     if retries.retry(i, reply["message"]):
-                        todo.append(i)
+                        todo.again(i)
                     continue
                 for rel, data in reply.get("files", {}).items():
                     write_bytes(layout.root / rel, data)
-                finish_sample(layout, params[i], Rendered.from_dict(reply), reply["camera_scale"])
+                finish_sample(layout, params, Rendered.from_dict(reply), reply["camera_scale"])
                 device = reply.get("device", device)
                 bar.update(views)
         ray.get([a.close.remote() for a in idle])

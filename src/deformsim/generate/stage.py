@@ -1,10 +1,10 @@
 """`deformsim generate`: render a labelled intact/deformed dataset with a pool of Blender workers.
 
 The orchestrator never imports bpy. It validates every input before work starts (:func:`prepare`, refusing
-what :mod:`.refusals` names), draws each sample's parameters (pure, by index), hands indices to worker
-processes, writes each finished sample's record atomically, and consolidates the manifest at the end. Rerunning
-on the same folder resumes: finished samples are skipped, so the result is the same as an uninterrupted run's
-whatever the number of workers.
+what :mod:`.refusals` names), hands samples to worker processes as they ask, drawing each one's parameters then
+(pure, by index, so planning holds nothing per sample), writes each finished sample's record atomically, and
+consolidates the manifest at the end. Rerunning on the same folder resumes: finished samples are skipped, so the
+result is the same as an uninterrupted run's whatever the number of workers.
 
 A dataset records what it is rendered from (:mod:`.identity`) in ``inputs.json``, its config in ``config.yaml``
 and the package versions in ``versions.json``.
@@ -23,10 +23,10 @@ from deformsim.bank.stage import bake
 from deformsim.config import Config, dump_config
 from deformsim.dataset.images import open_rgb
 from deformsim.dataset.layout import Layout
-from deformsim.dataset.manifest import consolidate, read_record
+from deformsim.dataset.manifest import consolidate
 from deformsim.errors import ResourceError, UserError
 from deformsim.extras import require
-from deformsim.generate.backend import disk_full, remove_partial_files
+from deformsim.generate.backend import Todo, disk_full, finished, remove_partial_files
 from deformsim.generate.identity import appearance_photos, input_digests, texture_photos
 from deformsim.generate.local import run_local
 from deformsim.generate.probe import probe_mesh
@@ -149,32 +149,31 @@ def _generate(cfg: Config, out: str | Path, progress: bool = True,
     write_json(layout.versions, versions())
     remove_partial_files(layout)
 
-    indices = list(range(n_samples(cfg)))
-    todo = [i for i in indices if read_record(layout, i) is None]
-    if todo and cfg.deform.sources.uses_bank:
-        bake(spec, cfg.object.spec, cfg.object.mesh, progress)  # once; cached for every later run
+    n = n_samples(cfg)
     photos, artwork = texture_photos(cfg), appearance_photos(cfg)
-    params = {i: sample_params(i, cfg.generate.seed, cfg, spec, hdris, photos, artwork) for i in todo}
+    todo = Todo(n, finished(layout, n), lambda i: sample_params(i, cfg.generate.seed, cfg, spec, hdris, photos, artwork))
+    if len(todo) and cfg.deform.sources.uses_bank:
+        bake(spec, cfg.object.spec, cfg.object.mesh, progress)  # once; cached for every later run
     views = len(cfg.camera.azimuth_quadrants)
     log.info(
         "generate: %d images (%d samples x %d cameras), %d samples to render, %d already done",
-        len(indices) * views, len(indices), views, len(todo), len(indices) - len(todo),
+        n * views, n, views, len(todo), len(todo.done),
     )
-    result = GenerateResult(images=len(indices) * views, rendered=0)
-    if todo:
+    result = GenerateResult(images=n * views, rendered=0)
+    if len(todo):
         if cfg.generate.backend == "ray":
             from deformsim.generate.ray import run_ray
 
-            failed, device = run_ray(cfg, layout, params, progress)
+            failed, device = run_ray(cfg, layout, todo, progress)
         else:
-            failed, device = run_local(cfg, layout, params, progress)
+            failed, device = run_local(cfg, layout, todo, progress)
         result.failed, result.device = failed, device
         result.rendered = len(todo) - len(failed)
     if result.failed:
         write_json(out / "failures.json", {str(k): v for k, v in result.failed.items()})
     else:
         (out / "failures.json").unlink(missing_ok=True)  # an earlier run's failures, since rendered
-    done = [i for i in indices if i not in result.failed]
+    done = [i for i in range(n) if i not in result.failed]
     if not done:
         full = disk_full(layout, *result.failed.values())
         if full is not None:

@@ -8,10 +8,15 @@ themselves and ``grey``; the image hash the image file's bytes (sha256) and the 
 rewritten image (even one copied over another with the same size and time), other weights or another decoding make
 new files, and identical images share one. Training, prediction and PCA features of every run read the same files.
 An entry that is not a finite float32 tensor of the stem's shape is computed again and replaced.
+
+Memory is bounded whatever ``image_size``: images go through the frozen layers in passes of at most
+:data:`PASS_BUDGET` bytes of activations (:func:`pass_size`, from the stem's activations at that size), so a 1024-pixel
+VGG-16 takes one image per pass where a 224-pixel one takes most of a batch.
 """
 
 from __future__ import annotations
 
+import copy
 import hashlib
 from pathlib import Path
 from weakref import WeakKeyDictionary
@@ -29,6 +34,8 @@ from deformsim.outputs import cache_dir
 
 _STEM_HASHES: WeakKeyDictionary = WeakKeyDictionary()  # model -> (weight versions, hash)
 _STEM_SHAPES: dict[tuple[str, int, int], tuple[int, ...]] = {}  # (backbone, cut, size) -> activation shape
+_IMAGE_BYTES: dict[tuple[str, int, int], int] = {}  # (backbone, cut, size) -> bytes one image takes in the stem
+PASS_BUDGET = 512 << 20  # bytes of activations one pass through the frozen layers may hold
 
 
 def stem_hash(model: DeformNet) -> str:
@@ -62,10 +69,47 @@ def cache_key(model: DeformNet, paths: list[str], size: int, crop: str = "none",
     return [f"{folder}/{hashlib.sha256(_image_identity(str(p)).encode()).hexdigest()[:32]}.pt" for p in paths]
 
 
+def image_bytes(model: DeformNet, size: int) -> int:
+    """Bytes one image takes going through the frozen layers at ``size``, measured once on the meta device (no
+    memory): the image twice (as read and normalised), and the most any top-level layer holds at once, taken as its
+    input and every activation inside it (a block keeps its inner activations until it returns)."""
+    key = (model.backbone, model.cut, size)
+    if key not in _IMAGE_BYTES:
+        stem = copy.deepcopy(model.features[: model.cut]).to("meta").eval()
+        held: list[int] = []
+
+        def nbytes(t) -> int:
+            return t.numel() * t.element_size() if isinstance(t, torch.Tensor) else 0
+
+        def enter(module, inputs) -> None:
+            held.append(sum(map(nbytes, inputs)))
+
+        def leaf(module, inputs, output) -> None:
+            held[-1] += nbytes(output)
+
+        for block in stem.children():
+            block.register_forward_pre_hook(enter)
+            for m in block.modules():
+                if not list(m.children()):
+                    m.register_forward_hook(leaf)
+        with torch.no_grad():
+            stem(torch.empty(1, 3, size, size, device="meta"))
+        _IMAGE_BYTES[key] = 2 * 3 * size * size * 4 + max(held)
+    return _IMAGE_BYTES[key]
+
+
+def pass_size(model: DeformNet, size: int, batch_size: int) -> int:
+    """Images per pass through the frozen layers: ``batch_size``, or fewer (at least one) to hold at most
+    :data:`PASS_BUDGET` bytes of activations at ``size``."""
+    return max(1, min(batch_size, PASS_BUDGET // image_bytes(model, size)))
+
+
 def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, progress: bool = False,
              crop: str = "none", flip: bool = False) -> torch.Tensor:
-    """Frozen-stem activations (float32) of ``paths``, computed in eval mode without gradients."""
-    loader = torch.utils.data.DataLoader(ImageSet(paths, size, crop=crop, flip=flip), batch_size=batch_size)
+    """Frozen-stem activations (float32) of ``paths``, computed in eval mode without gradients, in passes of at most
+    ``batch_size`` images that fit :data:`PASS_BUDGET`."""
+    loader = torch.utils.data.DataLoader(ImageSet(paths, size, crop=crop, flip=flip),
+                                         batch_size=pass_size(model, size, batch_size))
     device = model.mean.device
     was_training = model.training
     model.eval()
@@ -118,4 +162,5 @@ def cached_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, 
             t = t.clone()  # a view would save the whole batch's storage
             checkpoint.write(f, t)
             found[f] = t
+        del feats, t  # before the stack: two copies at most
     return torch.stack([found[f] for f in files])

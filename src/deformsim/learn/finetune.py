@@ -84,7 +84,7 @@ def photo_views(model: DeformNet, paths: list[str], size: int, views: int, seed:
     image (cached), then augmented views (drawn from torch's RNG seeded by ``seed``, the caller's RNG left as it
     was)."""
     from deformsim.learn.data import ImageSet, augmenter
-    from deformsim.learn.features import cached_stem
+    from deformsim.learn.features import cached_stem, pass_size
 
     out = [cached_stem(model, paths, size, batch_size, progress, crop)]
     if views:
@@ -97,7 +97,8 @@ def photo_views(model: DeformNet, paths: list[str], size: int, views: int, seed:
             torch.manual_seed(seed)
             for _ in range(views):
                 x = torch.stack([augment(im) for im in plain])
-                out.append(torch.cat([model.stem(b.to(model.mean.device)).cpu() for b in x.split(batch_size)]))
+                out.append(torch.cat([model.stem(b.to(model.mean.device)).cpu()
+                                      for b in x.split(pass_size(model, size, batch_size))]))
         model.train(was_training)
     return torch.stack(out)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -14,12 +15,13 @@ from deformsim.learn.adapter import Adapter
 from deformsim.learn.checkpoint import read_checkpoint, restore
 from deformsim.learn.data import ImageSet
 from deformsim.learn.device import pick_device, set_threads
-from deformsim.learn.features import cached_stem
+from deformsim.learn.features import cached_stem, pass_size, stem_shape
 from deformsim.learn.models import members
 from deformsim.log import progress_bar
 
 LAYERS = ("penultimate", "pooled")
-CHUNK = 512  # images whose cached stem activations are held in memory at once
+CHUNK = 512  # images whose cached stem activations are held in memory at once, at most
+HELD_BUDGET = 64 << 20  # bytes of stem activations held at once (twice while they are stacked)
 
 
 class Predictor:
@@ -54,16 +56,19 @@ class Predictor:
     def _stems(self, paths, flip: bool = False):
         """Batches of stem activations (float32 on the device) of the images as the model's test-time crop and
         ``flip`` show them: cached per image unless ``cache_features`` is off."""
-        paths, bs, crop = [str(p) for p in paths], self.cfg.batch_size, self.cfg.crop
+        paths, bs, crop, size = [str(p) for p in paths], self.cfg.batch_size, self.cfg.crop, self.cfg.image_size
         if not self.cfg.cache_features:
-            loader = torch.utils.data.DataLoader(ImageSet(paths, self.cfg.image_size, crop=crop, flip=flip), batch_size=bs)
+            loader = torch.utils.data.DataLoader(ImageSet(paths, size, crop=crop, flip=flip),
+                                                 batch_size=pass_size(self.model, size, bs))
             with progress_bar(len(loader), "images", self._show_progress) as bar:
                 for x in loader:
                     yield self.model.stem(x.to(self.device))
                     bar.update()
             return
-        for i in range(0, len(paths), CHUNK):  # bounded memory on large folders
-            stems = cached_stem(self.model, paths[i : i + CHUNK], self.cfg.image_size, bs, self._show_progress, crop, flip)
+        held = 4 * math.prod(stem_shape(self.model, size))
+        chunk = max(1, min(CHUNK, HELD_BUDGET // held))  # bounded memory on large folders and large images
+        for i in range(0, len(paths), chunk):
+            stems = cached_stem(self.model, paths[i : i + chunk], size, bs, self._show_progress, crop, flip)
             for z in stems.split(bs):
                 yield z.to(self.device)
 

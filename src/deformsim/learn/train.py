@@ -31,7 +31,7 @@ from deformsim.errors import UserError
 from deformsim.learn import checkpoint
 from deformsim.learn.data import ImageSet, training_transform
 from deformsim.learn.device import pick_device, set_threads
-from deformsim.learn.features import cached_stem
+from deformsim.learn.features import cached_stem, pass_size
 from deformsim.learn.models import LOGIT_EPS, DeformNet, build, members
 from deformsim.log import get_logger, progress_bar
 
@@ -55,6 +55,7 @@ class _Inputs:
     def __init__(self, model: DeformNet, paths: list[str], cfg: TrainConfig, device: torch.device, progress: bool):
         self.model, self.device = model, device
         self.feats = None
+        self.per_pass = pass_size(model, cfg.image_size, cfg.batch_size)
         self.plain = ImageSet(paths, cfg.image_size)
         transform = training_transform(cfg.augment, cfg.random_conv, cfg.image_size)
         self.augmented = ImageSet(paths, cfg.image_size, transform) if transform else self.plain
@@ -69,8 +70,9 @@ class _Inputs:
         if self.feats is not None:
             return self.feats[rows]
         images = self.augmented if train else self.plain
-        with torch.no_grad():
-            return self.model.stem(torch.stack([images[int(i)] for i in rows]).to(self.device))
+        with torch.no_grad():  # in passes that fit the memory budget
+            return torch.cat([self.model.stem(torch.stack([images[int(i)] for i in part]).to(self.device))
+                              for part in rows.split(self.per_pass)])
 
 
 def _evaluate(model: DeformNet, inputs: _Inputs, rows: torch.Tensor, y: torch.Tensor,

@@ -17,6 +17,7 @@ from pydantic import ConfigDict, Field, ValidationError, field_validator, model_
 from deformsim.errors import UserError
 from deformsim.schema import Range, StrictModel, check_range, check_unique, first_error, read_mapping, shown
 from deformsim.spec.lattice_ops import OPERATIONS
+from deformsim.spec.mesh_numbers import check_size
 from deformsim.spec.simulation import Simulation
 
 BUILTIN_SPEC = Path(__file__).parent / "builtin" / "can.yaml"
@@ -341,7 +342,8 @@ def units_hint(size: list[float] | tuple[float, ...], spec: Spec) -> str | None:
 
 
 def check_mesh_file(path: str | Path) -> Path:
-    """Fail with one line unless ``path`` is an existing, non-empty file of a supported mesh format."""
+    """Fail with one line unless ``path`` is an existing, non-empty file of a supported mesh format, of a size its
+    format allows (:func:`deformsim.spec.mesh_numbers.check_size`)."""
     path = Path(path)
     if path.suffix.lower() not in MESH_SUFFIXES:
         raise UserError(f"mesh {path}: unsupported format '{path.suffix}' (use {', '.join(MESH_SUFFIXES)})")
@@ -349,4 +351,5 @@ def check_mesh_file(path: str | Path) -> Path:
         raise UserError(f"mesh file not found: {path}")
     if path.stat().st_size == 0:
         raise UserError(f"mesh {path} is empty (0 bytes)")
+    check_size(path)
     return path
