@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
 from PIL import Image
 
 from deformsim.config import load_config
@@ -50,6 +51,11 @@ def test_run_on_the_builtin_can_makes_a_report_and_skips_what_is_done(tmp_path):
     assert again.skipped == ["generate", "composite:procedural", "report"] and not again.seconds
     changed = run(load_config("quick", {**E2E, "train.epochs": 2}), tmp_path / "run", real=real, progress=False)
     assert changed.skipped == ["generate", "composite:procedural"]
+    adapted = run(load_config("quick", {**E2E, "train.epochs": 2}), tmp_path / "run", real=real, progress=False,
+                  unlabelled=real)  # the model adapts to the photos last, their labels unread
+    assert adapted.skipped == ["generate", "composite:procedural", "report"] and list(adapted.seconds) == ["adapt"]
+    assert adapted.adapted == tmp_path / "run" / "model-adapted"
+    assert "adapter" in torch.load(adapted.adapted / "model.pt", weights_only=True)
 
 
 @pytest.mark.blender
@@ -134,6 +140,23 @@ def test_run_never_writes_into_another_output_nor_replaces_an_input(tmp_path, no
     with pytest.raises(UserError, match="--out .*lies inside the backgrounds folder"):
         run(load_config("quick", {**E2E, "composite.backgrounds": str(photos)}), photos / "run", progress=False)
     assert sorted(p.name for p in data.iterdir()) == ["inputs.json", "samples"] and not any(photos.iterdir())
+
+
+def test_unlabelled_photos_are_checked_before_any_work(tmp_path, no_work):
+    from PIL import Image
+
+    few = tmp_path / "few"
+    few.mkdir()
+    for k in range(3):
+        Image.new("RGB", (8, 8), (k, 0, 0)).save(few / f"{k}.png")
+    cfg = load_config("quick", E2E)
+    with pytest.raises(UserError, match="--unlabelled .*few holds 3 distinct photo"):
+        run(cfg, tmp_path / "run", unlabelled=few, progress=False)
+    with pytest.raises(UserError, match="--unlabelled folder not found"):
+        run(cfg, tmp_path / "run", unlabelled=tmp_path / "nope", progress=False)
+    with pytest.raises(UserError, match="the run's adapted model .*contains the unlabelled photos"):
+        run(cfg, tmp_path / "run", unlabelled=tmp_path / "run" / "model-adapted" / "photos", progress=False)
+    assert not (tmp_path / "run").exists()
 
 
 def test_a_run_is_never_written_inside_a_folder_of_photos_it_reads(tmp_path, no_work):

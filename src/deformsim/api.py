@@ -260,15 +260,18 @@ class Engine:
         return make_report(Path(data), self.config.train, out, real=_path(real), overwrite=overwrite,
                            progress=self.progress, fewshot=_path(fewshot))
 
-    def run(self, out: str | Path, real: str | Path | None = None, overwrite: bool = False, yes: bool = False):
+    def run(self, out: str | Path, real: str | Path | None = None, overwrite: bool = False, yes: bool = False,
+            unlabelled: str | Path | None = None):
         """Every stage into ``out``, skipping those already up to date; a :class:`RunResult`. More than
-        ``config.CONFIRM_IMAGES`` images are refused unless ``yes``."""
+        ``config.CONFIRM_IMAGES`` images are refused unless ``yes``. ``unlabelled``: photos of real parts (no label
+        read) that the run's model adapts to last (``OUT/model-adapted``)."""
         from deformsim.generate.refusals import check_plan
         from deformsim.pipeline import run
 
         check_plan(self.config, yes)
         self._check_real(real)
-        return run(self.config, Path(out), real=_path(real), progress=self.progress, overwrite=overwrite)
+        return run(self.config, Path(out), real=_path(real), progress=self.progress, overwrite=overwrite,
+                   unlabelled=_path(unlabelled))
 
     def spec_check(self, spec: str | Path, mesh: str | Path | None = None) -> SpecCheck:
         """Validate a spec and, when given, its mesh by the part checks of ``generate`` (the mesh imported in a

@@ -43,6 +43,7 @@ class RunResult:
     seconds: dict[str, float] = field(default_factory=dict)
     skipped: list[str] = field(default_factory=list)
     model: Path | None = None  # the model of the report's headline test, the one to use
+    adapted: Path | None = None  # with unlabelled photos: that model adapted to them (deformsim adapt)
 
 
 class Stages:
@@ -63,7 +64,9 @@ class Stages:
         write_json(self.path, self.stamps)
 
 
-STAGE_TITLES = {"generate": "generate: render the dataset", "report": "report: train and test each variant"}
+STAGE_TITLES = {"generate": "generate: render the dataset", "report": "report: train and test each variant",
+                "adapt": "adapt: the model to the unlabelled photos"}
+ADAPTED_MODEL = "model-adapted"  # OUT's model adapted to --unlabelled photos
 
 
 def _report_split(seconds: float, metrics: Path) -> dict[str, float]:
@@ -88,11 +91,13 @@ def _inputs(cfg: Config, real: Path | None) -> dict[str, Path | None]:
     return {"real photos": real, "backgrounds folder": cfg.composite.backgrounds, **cfg.input_paths()}
 
 
-def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True, overwrite: bool = False) -> RunResult:
+def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True, overwrite: bool = False,
+        unlabelled: Path | None = None) -> RunResult:
     """Run every stage for ``cfg`` into ``out``; returns where things are and what each stage took.
 
     ``overwrite``: a dataset folder that cannot be resumed (it holds more samples than ``generate.n``) is
-    rendered again from scratch instead of refused.
+    rendered again from scratch instead of refused. ``unlabelled``: photos of real parts (labels never read) that
+    the run's model adapts to last, into ``OUT/model-adapted`` (:mod:`deformsim.learn.adapt_stage`).
     """
     from deformsim.composite.backgrounds import photos_digest
     from deformsim.composite.stage import composite
@@ -107,11 +112,17 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
     spec = load_spec(cfg.object.spec)
     identity = data_identity(cfg, spec)
     data = out / f"data-{digest(identity)}"
-    inputs = _inputs(cfg, real)
+    inputs = _inputs(cfg, real) | {"unlabelled photos": unlabelled}
     for replaced, what in ((data, "the run's dataset folder"), (out / "report", "the run's report folder"),
-                           (out / RUN_MODEL, "the run's model folder")):
+                           (out / RUN_MODEL, "the run's model folder"), (out / ADAPTED_MODEL, "the run's adapted model")):
         check_apart(replaced, what, inputs)
-    check_outside(out, "--out", {"real photos": real, "backgrounds folder": cfg.composite.backgrounds, **cfg.photo_folders()})
+    check_outside(out, "--out", {"real photos": real, "backgrounds folder": cfg.composite.backgrounds,
+                                 "unlabelled photos": unlabelled, **cfg.photo_folders()})
+    photos = None
+    if unlabelled is not None:
+        from deformsim.learn.adapt_stage import images_digest_of, unlabelled_photos
+
+        photos = images_digest_of(unlabelled_photos(unlabelled, "--unlabelled")[1])
     prepared = prepare(cfg, data, overwrite, spec)  # every input check before any work
     real_id = real_digest(real)
     backgrounds = cfg.composite.backgrounds
@@ -125,7 +136,7 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
 
     variants = [v if v != "backgrounds" or cfg.composite.backgrounds else "procedural" for v in cfg.composite.variants]
     composited = [v for v in variants if v not in ("black", "green")]
-    names = ["generate", *(f"composite:{v}" for v in composited), "report"]
+    names = ["generate", *(f"composite:{v}" for v in composited), "report", *(["adapt"] if unlabelled else [])]
 
     def stage(name: str, stamp: str, output: Path, work) -> None:
         title = STAGE_TITLES.get(name) or f"{name.replace(':', ' ')}: the renders on backgrounds"
@@ -169,4 +180,10 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
         if not stages.fresh("model", report_stamp, result.model / "model.pt"):
             link_model(model, result.model)
             stages.done("model", report_stamp)
+        if unlabelled is not None:
+            from deformsim.learn.adapt_stage import adapt_model
+
+            result.adapted = out / ADAPTED_MODEL
+            stage("adapt", digest([report_stamp, photos]), result.adapted / "model.pt",
+                  lambda: adapt_model(result.model, unlabelled, result.adapted, overwrite=True, progress=progress))
     return result

@@ -31,6 +31,9 @@ def register(app: typer.Typer) -> None:
         config: str = typer.Option("quick", "--config", "-c", help="YAML config file or preset name"),
         out: Path = typer.Option(Path("runs/demo"), "--out", "-o", help="run folder"),
         real: Optional[Path] = typer.Option(None, "--real", help=f"real photos for sim-to-real: {REAL_HELP}"),
+        unlabelled: Optional[Path] = typer.Option(None, "--unlabelled", help="unlabelled photos of real parts (any "
+                                                  "folder, no label read): the model adapts to them last, into "
+                                                  "OUT/model-adapted (deformsim adapt)"),
         backgrounds: Optional[Path] = shortcut("--backgrounds"),
         object_: Optional[Path] = shortcut("--object"),
         spec: Optional[Path] = shortcut("--spec"),
@@ -52,7 +55,8 @@ def register(app: typer.Typer) -> None:
         flags = shortcut_flags(object_=object_, spec=spec, n=n, resolution=resolution, samples=samples, epochs=epochs,
                                seed=seed, backgrounds=backgrounds)
         result = ConfigArgs(config, flags, sets=set_).engine(progress, note(err_console)).run(out, real,
-                                                                                           overwrite=overwrite, yes=yes)
+                                                                                           overwrite=overwrite, yes=yes,
+                                                                                           unlabelled=unlabelled)
         if result.seconds:
             console.print("[bold]time per stage:[/]", highlight=False)
         for name, secs in result.seconds.items():
@@ -65,3 +69,5 @@ def register(app: typer.Typer) -> None:
         if result.model is not None:
             console.print(f"[bold]predict with its model:[/] deformsim predict {escape(shlex.quote(str(result.model)))} "
                           "PHOTOS...", highlight=False)
+        if result.adapted is not None:
+            console.print(f"[bold]adapted to the unlabelled photos:[/] {escape(str(result.adapted))}", highlight=False)
