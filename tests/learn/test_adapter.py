@@ -4,6 +4,7 @@ are refused in one line before any work."""
 
 from __future__ import annotations
 
+import json
 import shutil
 
 import numpy as np
@@ -176,7 +177,13 @@ def test_cli_adapt_predict_adapt_and_benchmark(trained, photos, tmp_path):
     more = tmp_path / "more"
     make_blobs(more, 10, seed=12)
     bench = runner.invoke(app, ["bench", "adapt", str(trained), "--real", str(more), "--out", str(tmp_path / "b"),
-                                "--no-progress"])
+                                "--k", "1,3", "--draws", "2", "--no-progress"])
     assert bench.exit_code == 0, bench.output
-    for row in ("unadapted", "probe transductive", "probe inductive", "prior inductive"):
+    for row in ("unadapted", "probe transductive", "probe inductive", "prior inductive", "labelled probe",
+                "the rest unlabelled"):
         assert row in bench.output
+    kshot = json.loads((tmp_path / "b" / "adapt.json").read_text())["kshot"]
+    assert [(r["k"], r["runs"]) for r in kshot if r["curve"] == "unadapted"] == [(1, 2), (3, 2)]
+    refused = runner.invoke(app, ["bench", "adapt", str(trained), "--real", str(more), "--out", str(tmp_path / "c"),
+                                  "--k", "10"])
+    assert refused.exit_code in (1, 2) and "k must leave one to score" in refused.output

@@ -11,6 +11,7 @@ import typer
 from deformsim.cli.choices import completes, variant_choices
 from deformsim.cli.common import ConfigArgs, console, fail_cleanly, set_option
 from deformsim.cli.summary import baseline_summary, sim2real_summary
+from deformsim.errors import UserError
 
 SIZES = {True: {"generate.n": 320}, False: {"generate.n": 640}}  # --quick or not
 
@@ -174,7 +175,11 @@ def adapt(
                                 "adapt"),
     folds: int = typer.Option(2, "--folds", help="inductive protocol: folds of the photos, each scored by the model "
                               "adapted on the others"),
-    seed: int = typer.Option(0, "--seed", help="seed of the folds and the intervals"),
+    seed: int = typer.Option(0, "--seed", help="seed of the folds, the draws and the intervals"),
+    k: str = typer.Option("", "--k", help="also comma-separated labelled photos per class (e.g. 1,2,5,10,20): the "
+                          "model beside a probe on those photos alone and the probe on them with the rest unlabelled, "
+                          "scored on the rest"),
+    draws: int = typer.Option(5, "--draws", help="draws of the k photos per model"),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:
     """Adapt a model to real photos without their labels, transductive (adapted on the photos it is scored on) and
@@ -182,8 +187,11 @@ def adapt(
     to the unadapted models."""
     from deformsim.cli.summary import adaptation_summary
     from deformsim.evaluate.adaptation import run_adaptation
+    from deformsim.evaluate.fewshot import parse_ks
 
+    if not 1 <= draws <= 1000:
+        raise UserError(f"--draws must lie in [1, 1000], got {draws}")
     result = run_adaptation(models, real, out, tuple(m.strip() for m in methods.split(",") if m.strip()), folds,
-                            seed=seed, progress=progress)
+                            seed=seed, progress=progress, ks=parse_ks(k) if k else [], draws=draws)
     adaptation_summary(result)
     console.print(f"results: {out / 'adapt.json'}", highlight=False, soft_wrap=True)

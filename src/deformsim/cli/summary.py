@@ -161,3 +161,14 @@ def adaptation_summary(results: dict) -> None:
         table.add_row(escape(name), spread(row, "accuracy"), spread(row, "f1"), spread(row, "auc"), diff, prior)
     print_table(table, None)
     console.print(f"true share deformed {results['true_share']:.0%}", highlight=False)
+    if results.get("kshot"):
+        kshot = Table(title=f"k labelled photos per class, scored on the rest ({results['draws']} draws per model)",
+                      header_style="bold")
+        for col in ("k", "model", "runs", "accuracy", "vs unadapted (95 % interval)"):
+            kshot.add_column(col, justify="left" if col == "model" else "right")
+        for r in results["kshot"]:
+            paired = "" if "paired" not in r else (f"{100 * r['paired']:+.1f} ({100 * r['paired_interval'][0]:+.1f} "
+                                                    f"to {100 * r['paired_interval'][1]:+.1f})")
+            kshot.add_row(str(r["k"]), escape(r["curve"]), str(r["runs"]),
+                          f"{r['accuracy']:.3f} ± {r['accuracy_std']:.3f}", paired)
+        print_table(kshot, None)

@@ -28,6 +28,7 @@ from deformsim.log import get_logger
 log = get_logger(__name__)
 
 PROTOCOLS = ("transductive", "inductive")
+KSHOT = ("labelled probe", "probe, the rest unlabelled")  # the k-photo curves beside the unadapted model
 
 
 def _folds(n: int, folds: int, seed: int) -> np.ndarray:
@@ -62,10 +63,50 @@ def _row(y: np.ndarray, probs: np.ndarray, threshold: float) -> dict:
     return row
 
 
+def _kshot(p0: np.ndarray, features: np.ndarray, y: np.ndarray, k: int, rng: np.random.Generator,
+           recipe: AdaptRecipe, threshold: float) -> dict[str, float]:
+    """Accuracy on the photos left after drawing k labelled ones of each class: the model unadapted, a probe fitted
+    on the k photos' labels alone, and the probe fitted on them and the rest unlabelled (transductive)."""
+    from deformsim.evaluate.fewshot import draw
+    from deformsim.learn.adapter import fit_logistic
+
+    chosen, rest = draw(y, k, rng)
+    labels = np.full(len(y), -1)
+    labels[chosen] = y[chosen]
+    x = (features - features.mean(0)) / (features.std(0) + 1e-6)  # the photos' pixels, not their labels
+    coef, bias = fit_logistic(x[chosen], y[chosen].astype(float), np.ones(len(chosen)), recipe.l2)
+    both = fit_adapter(p0, features, recipe, labels)
+    scored = {"unadapted": p0[rest], KSHOT[0]: 1 / (1 + np.exp(-(x[rest] @ coef + bias))),
+              KSHOT[1]: both.apply(p0[rest], features[rest])}
+    return {name: float(((p >= threshold) == (y[rest] == 1)).mean()) for name, p in scored.items()}
+
+
+def kshot_curves(base: list[np.ndarray], features: list[np.ndarray], y: np.ndarray, ks: list[int], draws: int,
+                 recipe: AdaptRecipe, threshold: float, seed: int) -> list[dict]:
+    """Per k and curve: mean accuracy over the models and draws, its standard deviation, and the mean paired
+    difference to the unadapted model on the same photos with a 95 % bootstrap interval over the runs."""
+    from deformsim.evaluate.fewshot import mean_interval
+
+    rows = []
+    for k in ks:
+        runs = [_kshot(p0, f, y, k, np.random.default_rng([seed, k, d]), recipe, threshold)
+                for p0, f in zip(base, features) for d in range(draws)]
+        for name in ("unadapted", *KSHOT):
+            acc = [r[name] for r in runs]
+            row = {"k": k, "curve": name, "runs": len(runs), "accuracy": float(np.mean(acc)),
+                   "accuracy_std": float(np.std(acc))}
+            if name != "unadapted":
+                row["paired"], row["paired_interval"] = mean_interval([r[name] - r["unadapted"] for r in runs], seed)
+            rows.append(row)
+    return rows
+
+
 def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str, ...] = METHODS, folds: int = 2,
-                   recipe: AdaptRecipe = AdaptRecipe(), seed: int = 0, progress: bool = True) -> dict:
+                   recipe: AdaptRecipe = AdaptRecipe(), seed: int = 0, progress: bool = True, ks: list[int] = (),
+                   draws: int = 5) -> dict:
     """Every method under both protocols on the labelled photos of ``real``, for each of ``models`` (e.g. one per
-    render draw), pooled; written to ``out/adapt.json``."""
+    render draw), pooled; with ``ks``, the k-photo curves (:func:`kshot_curves`, ``draws`` draws of the k photos
+    per model); written to ``out/adapt.json``."""
     from deformsim.evaluate.fewshot import _table
     from deformsim.evaluate.paired import _interval
     from deformsim.learn.adapt_stage import check_adaptable
@@ -78,6 +119,9 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     if not 2 <= folds <= 20:
         raise UserError(f"--folds must lie in [2, 20], got {folds}")
     table = _table(real).sort_values("digest").reset_index(drop=True)
+    fewest = int(min(table["y"].sum(), (1 - table["y"]).sum()))
+    if ks and max(ks) >= fewest:
+        raise UserError(f"--k {max(ks)}: {real} holds {fewest} photos of its smaller class; k must leave one to score")
     if len(table) < folds * MIN_PHOTOS:
         raise UserError(f"{real} holds {len(table)} distinct photos: {folds} folds of at least {MIN_PHOTOS} needs "
                         f"{folds * MIN_PHOTOS}")
@@ -87,29 +131,32 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     paths, y = list(table["path"]), table["y"].to_numpy()
     threshold = predictors[0].cfg.threshold
     fold = _folds(len(paths), folds, seed)
-    base, adapted, priors = [], {}, {}
+    base, adapted, priors, feats = [], {}, {}, []
     for predictor in predictors:
         p0 = predictor.synthetic_outputs(paths)
-        features = predictor.adapter_features(paths) if any("probe" in m for m in methods) else None
+        features = predictor.adapter_features(paths) if ks or any("probe" in m for m in methods) else None
         base.append(p0)
+        feats.append(features)
         for method, r in recipes.items():
             for protocol in PROTOCOLS:
                 p, prior = _adapted(p0, features, fold, r, protocol)
                 adapted.setdefault(f"{method} {protocol}", []).append(p)
                 priors.setdefault(f"{method} {protocol}", []).append(prior)
-    base = np.array(base)
     rng = np.random.default_rng(seed)
-    rows = {"unadapted": {**_row(y, base, threshold), "predictions": base.tolist()}}
+    stacked = np.array(base)
+    rows = {"unadapted": {**_row(y, stacked, threshold), "predictions": stacked.tolist()}}
     for name, probs in adapted.items():
         probs = np.array(probs)
-        rows[name] = {**_row(y, probs, threshold), "paired": _interval(probs, base, y, threshold, rng),
+        rows[name] = {**_row(y, probs, threshold), "paired": _interval(probs, stacked, y, threshold, rng),
                       "prior": priors[name], "predictions": probs.tolist()}
         acc = rows[name]["paired"]["accuracy"]
         log.info("%s: accuracy %.3f (%+.1f points, %+.1f to %+.1f)", name, rows[name]["accuracy"], 100 * acc["diff"],
                  100 * acc["low"], 100 * acc["high"])
+    kshot = kshot_curves(base, feats, y, [k for k in ks if k > 0], draws, recipe, threshold, seed)
     result = {"models": [str(m) for m in models], "real": str(real), "photos": len(paths), "folds": folds,
               "seed": seed, "recipe": asdict(recipe), "true_share": float(y.mean()), "labels": y.tolist(),
-              "paths": [str(p) for p in paths], "rows": rows, "seconds": time.perf_counter() - start}
+              "paths": [str(p) for p in paths], "rows": rows, "kshot": kshot, "draws": draws,
+              "seconds": time.perf_counter() - start}
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "adapt.json", result)
     return result
