@@ -187,3 +187,17 @@ def test_cli_adapt_predict_adapt_and_benchmark(trained, photos, tmp_path):
     refused = runner.invoke(app, ["bench", "adapt", str(trained), "--real", str(more), "--out", str(tmp_path / "c"),
                                   "--k", "10"])
     assert refused.exit_code in (1, 2) and "k must leave one to score" in refused.output
+
+
+def test_the_onnx_export_holds_the_adapter(trained, photos, tmp_path):
+    from deformsim.api import Engine
+    from deformsim.learn.onnx import to_onnx
+
+    root, table = photos
+    for method in ("probe", "prior"):
+        adapted = adapt_model(trained, root, tmp_path / method, AdaptRecipe(method=method), progress=False).model_path
+        paths = list(table["path"])
+        expected = load(adapted, progress=False).predict_proba(paths)
+        assert not np.allclose(expected, load(trained, progress=False).predict_proba(paths), atol=1e-3)
+        got = Engine("quick").predict(to_onnx(adapted, tmp_path / f"{method}.onnx"), paths)
+        np.testing.assert_allclose(got.columns["p_deformed"], expected, atol=1e-5)

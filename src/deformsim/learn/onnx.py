@@ -5,7 +5,8 @@ normalisation: it is inside the graph) and outputs ``p_deformed``: (N,) probabil
 ``train.target`` s ``max_disp_mm`` (N,), ``p_family`` (N, K) or ``p_region`` (N, s, s). The training
 threshold, classes, target, output names, image size and weights source are stored as ONNX metadata. An
 ensemble's mean (of its members and of its backbones' models, ``train.ensemble_backbones``) and test-time flips
-(``train.tta_flip``) are inside the graph; a test-time crop (``train.crop``) is not: the metadata names it, to apply
+(``train.tta_flip``) are inside the graph, and so is the adapter of a model adapted to photos (``deformsim adapt``);
+a test-time crop (``train.crop``) is not: the metadata names it, to apply
 before the graph.
 """
 
@@ -20,20 +21,34 @@ from torch import nn
 from deformsim.atomic import atomic_path
 from deformsim.errors import ResourceError, UserError
 from deformsim.learn.checkpoint import read_checkpoint, restore, restore_mixture
-from deformsim.learn.models import DeformNet, Ensemble
+from deformsim.learn.models import DeformNet, Ensemble, members
 from deformsim.outputs import DISK_FULL, check_file_target
 
 OUTPUT = {"label": "p_deformed", "severity": "max_disp_mm", "family": "p_family", "localise": "p_region"}
 
 
 class _Probabilities(nn.Module):
-    def __init__(self, models: list[DeformNet | Ensemble], flip: bool, target: str):
+    def __init__(self, models: list[DeformNet | Ensemble], flip: bool, target: str, adapter: dict | None = None):
         super().__init__()
         self.models, self.flip, self.target = nn.ModuleList(models), flip, target
+        self.adapter = adapter is not None
+        if adapter is not None:  # deformsim.learn.adapter.Adapter.apply, in the graph
+            for name in ("mean", "scale", "coef"):
+                self.register_buffer(name, torch.tensor(adapter[name] or [0.0], dtype=torch.float32))
+            self.anchor, self.shift, self.bias, self.probe = (adapter["anchor"], adapter["shift"], adapter["bias"],
+                                                              bool(adapter["coef"]))
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         outs = [self._one(model, image) for model in self.models]
-        return outs[0] if len(outs) == 1 else torch.stack(outs).mean(0)
+        p = outs[0] if len(outs) == 1 else torch.stack(outs).mean(0)
+        if not self.adapter:
+            return p
+        z = self.anchor * torch.logit(p, eps=1e-6) + self.shift
+        if self.probe:  # each backbone's pooled features of the plain image, the mean over its members
+            feats = torch.cat([torch.stack([m.pooled_raw(model.stem(image)) for m in members(model)]).mean(0)
+                               for model in self.models], 1)
+            z = z + ((feats - self.mean) / self.scale) @ self.coef + self.bias
+        return torch.sigmoid(z)
 
     def _one(self, model: DeformNet | Ensemble, image: torch.Tensor) -> torch.Tensor:
         out = model.predict(image)
@@ -50,9 +65,6 @@ def to_onnx(model_path: str | Path, onnx_path: str | Path) -> Path:
     """
     onnx_path = check_file_target(onnx_path, "--onnx", [model_path])
     ckpt, path = read_checkpoint(model_path)
-    if "adapter" in ckpt:
-        raise UserError(f"{path} is adapted to photos (deformsim adapt), which the ONNX graph does not hold yet: export "
-                        "the model it was made from, or predict with this one")
     model, cfg = restore(ckpt, path)
     models = [model] + [m for m, _ in restore_mixture(ckpt, path)]
     try:
@@ -71,7 +83,8 @@ def _export(models: list[DeformNet | Ensemble], cfg, ckpt: dict, onnx_path: Path
     output = OUTPUT[cfg.target]
     with atomic_path(onnx_path) as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice
-        torch.onnx.export(_Probabilities(models, cfg.tta_flip, cfg.target), (example,), str(tmp), dynamo=False, opset_version=17,
+        graph = _Probabilities(models, cfg.tta_flip, cfg.target, ckpt.get("adapter"))
+        torch.onnx.export(graph, (example,), str(tmp), dynamo=False, opset_version=17,
                           input_names=["image"], output_names=[output],
                           dynamic_axes={"image": {0: "batch"}, output: {0: "batch"}})
         proto = onnx.load(str(tmp))
