@@ -13,30 +13,13 @@ import torch
 from typer.testing import CliRunner
 
 from deformsim.cli.app import app
-from deformsim.config import TrainConfig
 from deformsim.errors import UserError
 from deformsim.learn.adapt_stage import adapt_model
 from deformsim.learn.adapter import Adapter, AdaptRecipe, em_prior, fit_adapter, fit_logistic, sigmoid
 from deformsim.learn.predict import load
-from deformsim.learn.train import fit
 from tests.learn.blobs import make_blobs
 
 pytestmark = pytest.mark.torch
-
-TINY = TrainConfig(weights="offline", image_size=32, epochs=1, batch_size=16)
-
-
-@pytest.fixture(scope="module")
-def trained(blobs, tmp_path_factory):
-    return fit(blobs, TINY, tmp_path_factory.mktemp("model") / "m", progress=False).model_path
-
-
-@pytest.fixture(scope="module")
-def photos(tmp_path_factory):
-    """'Real' photos in intact/ and deformed/ (other blobs, another seed)."""
-    root = tmp_path_factory.mktemp("photos") / "real"
-    return root, make_blobs(root, 6, seed=11)
-
 
 def test_em_prior_recovers_the_share_of_a_calibrated_model():
     rng = np.random.default_rng(0)

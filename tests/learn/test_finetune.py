@@ -11,32 +11,17 @@ import torch
 from typer.testing import CliRunner
 
 from deformsim.cli.app import app
-from deformsim.config import TrainConfig
 from deformsim.errors import UserError
 from deformsim.evaluate.experiments import evaluate_model
 from deformsim.identity import file_digest
 from deformsim.learn.checkpoint import read_checkpoint
 from deformsim.learn.finetune import Recipe, finetune
 from deformsim.learn.predict import load
-from deformsim.learn.train import fit
 from tests.learn.blobs import make_blobs
 
 pytestmark = pytest.mark.torch
 
-TINY = TrainConfig(weights="offline", image_size=32, epochs=1, batch_size=16)
 FAST = Recipe(part="head", steps=60, lr=1e-3, views=1)
-
-
-@pytest.fixture(scope="module")
-def trained(blobs, tmp_path_factory):
-    return fit(blobs, TINY, tmp_path_factory.mktemp("model") / "m", progress=False).model_path
-
-
-@pytest.fixture(scope="module")
-def photos(tmp_path_factory):
-    """Labelled 'real' photos: other blobs (another seed)."""
-    root = tmp_path_factory.mktemp("photos") / "real"
-    return root, make_blobs(root, 6, seed=11)
 
 
 def _gap(model, table) -> float:
