@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -184,3 +185,19 @@ def test_the_onnx_export_holds_the_adapter(trained, photos, tmp_path):
         assert not np.allclose(expected, load(trained, progress=False).predict_proba(paths), atol=1e-3)
         got = Engine("quick").predict(to_onnx(adapted, tmp_path / f"{method}.onnx"), paths)
         np.testing.assert_allclose(got.columns["p_deformed"], expected, atol=1e-5)
+
+
+def test_bench_ceiling_cross_validates_frozen_features(blobs, tmp_path):
+    """The round and jagged blobs are told apart by frozen ImageNet features with their labels; a bad backbone or
+    size is one line."""
+    root = Path(blobs["path"][0]).parents[1]
+    runner = CliRunner()
+    done = runner.invoke(app, ["bench", "ceiling", "--real", str(root), "--out", str(tmp_path / "c"), "--backbones",
+                               "efficientnet_lite0", "--sizes", "64", "--folds", "4"])
+    assert done.exit_code == 0, done.output
+    (row,) = json.loads((tmp_path / "c" / "ceiling.json").read_text())["rows"]
+    assert row["backbone"] == "efficientnet_lite0" and row["size"] == 64 and row["accuracy"] > 0.8
+    for args, message in ((["--backbones", "resnet9"], "choose from"), (["--sizes", "16"], "must lie in"),
+                          (["--sizes", "big"], "whole numbers")):
+        bad = runner.invoke(app, ["bench", "ceiling", "--real", str(root), "--out", str(tmp_path / "d"), *args])
+        assert bad.exit_code in (1, 2) and message in bad.output, bad.output

@@ -78,6 +78,7 @@ def register(app: typer.Typer) -> None:
     bench_app.command("bag")(fail_cleanly(bag))
     bench_app.command("fewshot")(fail_cleanly(fewshot))
     bench_app.command("adapt")(fail_cleanly(adapt))
+    bench_app.command("ceiling")(fail_cleanly(ceiling))
 
 
 _INPUTS = typer.Argument(..., help="two or more benchmarks' results.json (or their folders), on the same photos")
@@ -195,3 +196,35 @@ def adapt(
                             seed=seed, progress=progress, ks=parse_ks(k) if k else [], draws=draws)
     adaptation_summary(result)
     console.print(f"results: {out / 'adapt.json'}", highlight=False, soft_wrap=True)
+
+
+def ceiling(
+    real: Path = typer.Option(..., "--real", help="labelled real photos (intact/ and deformed/), cross-validated"),
+    out: Path = typer.Option(Path("runs/ceiling"), "--out", "-o", help="folder for ceiling.json"),
+    backbones: str = typer.Option("vgg16,efficientnet_lite0,efficientnet_lite2", "--backbones",
+                                  help="comma-separated backbones"),
+    sizes: str = typer.Option("128,224", "--sizes", help="comma-separated input sizes in pixels"),
+    folds: int = typer.Option(5, "--folds", help="cross-validation folds, stratified by class"),
+    seed: int = typer.Option(0, "--seed", help="seed of the folds"),
+) -> None:
+    """How well each backbone's frozen ImageNet features separate a real folder's classes: a logistic regression
+    cross-validated inside the folder (the ceiling of what adapting to such photos can reach)."""
+    from rich.table import Table
+
+    from deformsim.cli.summary import print_table
+    from deformsim.evaluate.ceiling import run_ceiling
+
+    try:
+        size_list = [int(v) for v in sizes.split(",") if v.strip()]
+    except ValueError:
+        raise UserError(f"--sizes {sizes!r}: expected comma-separated whole numbers, e.g. 128,224") from None
+    result = run_ceiling(real, out, [b.strip() for b in backbones.split(",") if b.strip()], size_list, folds, seed=seed)
+    table = Table(title=f"Frozen ImageNet features, {result['folds']}-fold logistic regression on {result['photos']} "
+                  f"photos (majority class {result['majority']:.3f})", header_style="bold")
+    for col in ("backbone", "size", "accuracy", "F1", "AUC"):
+        table.add_column(col, justify="left" if col == "backbone" else "right")
+    for r in result["rows"]:
+        table.add_row(r["backbone"], str(r["size"]), f"{r['accuracy']:.3f}", f"{r['f1']:.3f}",
+                      "-" if r["auc"] is None else f"{r['auc']:.3f}")
+    print_table(table, None)
+    console.print(f"results: {out / 'ceiling.json'}", highlight=False, soft_wrap=True)
