@@ -208,7 +208,7 @@ class Engine:
 
             check_adaptable(predictor)
             distinct, _ = distinct_photos(paths, "predict --adapt")
-            predictor.adapter, _ = fit_on(predictor, distinct, adapt)
+            predictor.adapter = fit_on(predictor, distinct, adapt)[0]
             prior = predictor.adapter.prior
         if predictor.target == "label":
             proba, labels = predictor.predict(paths, threshold)

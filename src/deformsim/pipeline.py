@@ -120,9 +120,9 @@ def run(cfg: Config, out: Path, real: Path | None = None, progress: bool = True,
                                  "unlabelled photos": unlabelled, **cfg.photo_folders()})
     photos = None
     if unlabelled is not None:
-        from deformsim.learn.adapt_stage import images_digest_of, unlabelled_photos
+        from deformsim.learn.adapt_stage import unlabelled_photos
 
-        photos = images_digest_of(unlabelled_photos(unlabelled, "--unlabelled")[1])
+        photos = digest(unlabelled_photos(unlabelled, "--unlabelled")[1])
     prepared = prepare(cfg, data, overwrite, spec)  # every input check before any work
     real_id = real_digest(real)
     backgrounds = cfg.composite.backgrounds

@@ -104,9 +104,20 @@ def test_adapted_model_applies_its_adapter_and_is_deterministic(trained, photos,
     paths = list(table["path"])
     pa, pb = load(first.model_path, progress=False), load(again.model_path, progress=False)
     assert np.array_equal(pa.predict_proba(paths), pb.predict_proba(paths))
-    synthetic = pa.synthetic_outputs(paths)
-    assert np.allclose(pa.adapter.apply(synthetic, pa.adapter_features(paths)), pa.predict_proba(paths))
+    synthetic, features = pa.outputs_and_features(paths, True)
+    assert np.array_equal(synthetic, pa.synthetic_outputs(paths))
+    assert np.allclose(pa.adapter.apply(synthetic, features), pa.predict_proba(paths))
     assert np.array_equal(synthetic, load(trained, progress=False).predict_proba(paths))
+
+
+def test_every_method_adapts_and_records_what_it_judged(trained, photos, tmp_path):
+    root, table = photos
+    for method in ("probe", "prior", "probe+prior"):
+        result = adapt_model(trained, root, tmp_path / method.replace("+", "-"), AdaptRecipe(method=method),
+                             progress=False)
+        adapted = load(result.model_path, progress=False)
+        after = (adapted.predict_proba(list(table["path"])) >= adapted.cfg.threshold).mean()
+        assert adapted.adapter.method == method and result.deformed_after == after
 
 
 def test_bad_folders_are_one_line_before_any_work(trained, photos, tmp_path, blobs):

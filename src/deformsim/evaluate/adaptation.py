@@ -133,8 +133,7 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     fold = _folds(len(paths), folds, seed)
     base, adapted, priors, feats = [], {}, {}, []
     for predictor in predictors:
-        p0 = predictor.synthetic_outputs(paths)
-        features = predictor.adapter_features(paths) if ks or any("probe" in m for m in methods) else None
+        p0, features = predictor.outputs_and_features(paths, bool(ks) or any(r.probe for r in recipes.values()))
         base.append(p0)
         feats.append(features)
         for method, r in recipes.items():

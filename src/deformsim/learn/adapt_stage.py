@@ -16,7 +16,7 @@ import numpy as np
 
 from deformsim.atomic import write_json
 from deformsim.errors import UserError
-from deformsim.identity import file_digest
+from deformsim.identity import digest, file_digest
 from deformsim.learn.adapter import MIN_PHOTOS, Adapter, AdaptRecipe, fit_adapter
 from deformsim.log import get_logger
 
@@ -72,13 +72,13 @@ def check_adaptable(predictor) -> None:
         raise UserError(f"{predictor.path} is adapted already: adapt the model it was made from")
 
 
-def fit_on(predictor, paths: list[str], recipe: AdaptRecipe) -> tuple[Adapter, np.ndarray]:
+def fit_on(predictor, paths: list[str], recipe: AdaptRecipe) -> tuple[Adapter, np.ndarray, np.ndarray]:
     """The adapter of ``predictor`` (:class:`deformsim.learn.predict.Predictor`, not adapted yet) fitted on
-    ``paths``, and the photos' probabilities before adapting."""
+    ``paths``, and the photos' probabilities before and after adapting."""
     check_adaptable(predictor)
-    p = predictor.synthetic_outputs(paths)
-    features = predictor.adapter_features(paths) if recipe.method == "probe" else None
-    return fit_adapter(p, features, recipe), p
+    p, features = predictor.outputs_and_features(paths, recipe.probe)
+    adapter = fit_adapter(p, features, recipe)
+    return adapter, p, adapter.apply(p, features)
 
 
 def adapt_model(model: Path, photos: Path, out: Path, recipe: AdaptRecipe = AdaptRecipe(), overwrite: bool = False,
@@ -101,11 +101,9 @@ def adapt_model(model: Path, photos: Path, out: Path, recipe: AdaptRecipe = Adap
     predictor = Predictor(ckpt, path, progress)
     check_adaptable(predictor)
     identity = {"settings": {"adapt": asdict(recipe)},
-                "inputs": {"model": file_digest(path), "photos": images_digest_of(digests)}}
+                "inputs": {"model": file_digest(path), "photos": digest(digests)}}
     claim(out, "model", identity, overwrite)
-    adapter, before = fit_on(predictor, paths, recipe)
-    predictor.adapter = adapter
-    after = predictor.predict_proba(paths)
+    adapter, before, after = fit_on(predictor, paths, recipe)
     threshold = predictor.cfg.threshold
     seconds = time.perf_counter() - start
     result = Adapted(out / checkpoint.MODEL_FILE, len(paths), adapter.prior, float((before >= threshold).mean()),
@@ -122,9 +120,3 @@ def adapt_model(model: Path, photos: Path, out: Path, recipe: AdaptRecipe = Adap
                                          **{k: v for k, v in asdict(result).items() if k != "model_path"}})
     return result
 
-
-def images_digest_of(digests: list[str]) -> str:
-    """One sha256 of a set of photos' digests."""
-    import hashlib
-
-    return hashlib.sha256("\n".join(digests).encode()).hexdigest()

@@ -38,6 +38,11 @@ class AdaptRecipe:
     rounds: int = 1  # self-training rounds: targets from the synthetic model, then from the probe
     labelled_weight: float = 4.0  # a labelled photo counts as this many fully confident unlabelled ones
 
+    @property
+    def probe(self) -> bool:
+        """Whether the method fits the feature probe (and so needs the photos' features)."""
+        return "probe" in self.method
+
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise UserError(f"adapt method must be one of {', '.join(METHODS)}, got {self.method!r}")

@@ -85,34 +85,38 @@ class Predictor:
         """What the model predicts, float64: P(deformed) (N,) (adapted to the user's photos when the model was,
         :mod:`deformsim.learn.adapter`), severity in mm (N,), family probabilities (N, K, in the order of
         ``outputs``) or region probability maps (N, s, s)."""
-        out = self.synthetic_outputs(paths)
-        if self.adapter is None or not len(out):
-            return out
-        return self.adapter.apply(out, self.adapter_features(paths) if self.adapter.coef else None)
+        if self.adapter is None:
+            return self.synthetic_outputs(paths)
+        out, features = self.outputs_and_features(paths, bool(self.adapter.coef))
+        return self.adapter.apply(out, features) if len(out) else out
 
-    @torch.inference_mode()
-    def adapter_features(self, paths: list[str | Path]) -> np.ndarray:
-        """What an adapter's probe reads (N, D): each backbone's pooled features of the plain image, the mean over an
-        ensemble's members, side by side."""
-        out = []
-        for p in [self, *self.others]:
-            nets = members(p.model)
-            out.append(torch.cat([torch.stack([m.pooled_raw(z) for m in nets]).mean(0).cpu() for z in p._stems(paths)]))
-        return torch.cat(out, 1).double().numpy()
-
-    @torch.inference_mode()
     def synthetic_outputs(self, paths: list[str | Path]) -> np.ndarray:
         """:meth:`predict_outputs` of the model as trained on renders (before any adapter)."""
+        return self.outputs_and_features(paths, False)[0]
+
+    @torch.inference_mode()
+    def outputs_and_features(self, paths: list[str | Path], features: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """:meth:`synthetic_outputs` and, with ``features``, what an adapter's probe reads (N, D): each backbone's
+        pooled features of the plain image, the mean over an ensemble's members, side by side; one pass of the
+        images through each backbone's frozen layers."""
         if not paths:
-            return np.zeros(0)
-        views = []
+            return np.zeros(0), np.zeros((0, 0)) if features else None
+        views, pooled, nets = [], [], members(self.model)
         for flip in (False, True) if self.cfg.tta_flip else (False,):
-            out = torch.cat([self.model.outputs(z).cpu() for z in self._stems(paths, flip)]).double()
+            outs = []
+            for z in self._stems(paths, flip):
+                outs.append(self.model.outputs(z).cpu())
+                if features and not flip:
+                    pooled.append(torch.stack([m.pooled_raw(z) for m in nets]).mean(0).cpu())
+            out = torch.cat(outs).double()
             views.append(out.flip(-1) if flip and self.target == "localise" else out)
         own = torch.stack(views).mean(0).numpy()
-        if not self.others:
-            return own
-        return np.mean([own] + [other.synthetic_outputs(paths) for other in self.others], axis=0)
+        feats = [torch.cat(pooled).double().numpy()] if features else []
+        if self.others:
+            rest = [other.outputs_and_features(paths, features) for other in self.others]
+            own = np.mean([own] + [r[0] for r in rest], axis=0)
+            feats += [r[1] for r in rest if r[1] is not None]
+        return own, np.concatenate(feats, 1) if features else None
 
     def gradcam(self, paths: list[str | Path]) -> np.ndarray:
         """Grad-CAM heatmaps (N, h, w) in [0, 1] of P(deformed) (:mod:`deformsim.learn.gradcam`); a mixture's are
