@@ -46,7 +46,7 @@ from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inr
 from deformsim.config import CompositeConfig
 from deformsim.dataset.layout import RENDER_KINDS, SHADOW_KIND, SURFACE_KIND, Layout, image_id
 from deformsim.dataset.manifest import read_manifest
-from deformsim.dataset.paths import dataset_file
+from deformsim.dataset.paths import dataset_resolver
 from deformsim.dataset.variants import VARIANT_MANIFEST
 from deformsim.errors import UserError
 from deformsim.log import progress_bar
@@ -156,9 +156,10 @@ def _jobs(layout: Layout, manifest: pd.DataFrame, source: str, shadows: bool = F
                         "render.surface: render it with render.surface, or set composite.surface to 0")
     dense = "mask" in manifest.columns
     jobs = []
+    resolve = dataset_resolver(layout.root)
     for i, row in enumerate(manifest.itertuples(index=False)):
         def file(col: str, row=row, i=i) -> Path:
-            return dataset_file(layout.root, getattr(row, col), f"manifest row {i} ({col})")
+            return resolve(getattr(row, col), f"manifest row {i} ({col})")
 
         src = file(source)
         if not src.is_file():

@@ -3,8 +3,8 @@
 A manifest row naming ``/etc/hostname``, ``../x`` or a symlink that leads out of the dataset is refused with one
 line naming the row and the file, and so is one that is not a regular file or, for an image, does not open as one.
 This is the one place for that check, meant for every reader of a dataset's files: :func:`dataset_file` (or
-:func:`dataset_files` for a table's column) and :func:`check_image`. A value that becomes part of a file name (an
-image's ``id``) is a plain name: :func:`file_stem`.
+:func:`dataset_files` for a table's column, :func:`dataset_resolver` for many files of one dataset) and
+:func:`check_image`. A value that becomes part of a file name (an image's ``id``) is a plain name: :func:`file_stem`.
 """
 
 from __future__ import annotations
@@ -19,9 +19,13 @@ from deformsim.schema import shown
 def dataset_file(root: str | Path, name: str | Path, what: str) -> Path:
     """``name`` (relative to the dataset ``root``, or absolute) with every symlink followed; a :class:`UserError`
     naming ``what`` (the row and column it comes from) when that lies outside ``root``. It need not exist."""
+    return _inside(Path(root).resolve(), root, name, what)
+
+
+def _inside(base: Path, root: str | Path, name: str | Path, what: str) -> Path:
+    """:func:`dataset_file` under the already resolved ``base`` of ``root`` (resolved once for a whole column)."""
     if not isinstance(name, (str, Path)) or not str(name):
         raise UserError(f"{what}: {shown(name)} is not a file name")
-    base = Path(root).resolve()
     try:
         path = (base / name).resolve()
     except (OSError, RuntimeError, ValueError):  # a symlink loop, a NUL in the name
@@ -31,6 +35,12 @@ def dataset_file(root: str | Path, name: str | Path, what: str) -> Path:
         raise UserError(f"{what}: {shown(name, 200)} lies outside the dataset {root} (a path or symlink leading "
                         "out of it): every file a dataset names must be inside it")
     return path
+
+
+def dataset_resolver(root: str | Path):
+    """:func:`dataset_file` for many names of one dataset, its ``root`` resolved once: ``resolve(name, what)``."""
+    base = Path(root).resolve()
+    return lambda name, what: _inside(base, root, name, what)
 
 
 MAX_STEM = 200  # characters of a name that becomes a file name (most filesystems allow 255 bytes)
@@ -50,7 +60,8 @@ def file_stem(value: object, what: str) -> str:
 
 def dataset_files(root: str | Path, names: Iterable, what: Iterable[str]) -> list[str]:
     """:func:`dataset_file` of each name (with its ``what``), as strings: a table column's paths."""
-    return [str(dataset_file(root, n, w)) for n, w in zip(names, what)]
+    base = Path(root).resolve()
+    return [str(_inside(base, root, n, w)) for n, w in zip(names, what)]
 
 
 def check_image(path: str | Path, what: str) -> tuple[int, int]:
