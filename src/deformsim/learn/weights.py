@@ -16,7 +16,6 @@ No cached file is trusted: a hub file whose name carries a digest is checked aga
 
 from __future__ import annotations
 
-import hashlib
 import re
 import socket
 from pathlib import Path
@@ -26,19 +25,12 @@ import torch
 
 from deformsim.atomic import atomic_path, write_text
 from deformsim.errors import UserError
+from deformsim.identity import file_digest as sha256  # cached per file and its stat
 from deformsim.learn.backbones import BACKBONES, Backbone, PypiSource
 from deformsim.log import get_logger
 from deformsim.outputs import cache_dir
 
 log = get_logger(__name__)
-
-
-def sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _load(path: Path, convert=lambda state: state) -> dict:
