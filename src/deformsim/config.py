@@ -34,7 +34,8 @@ PRESET_DIR = Path(__file__).parent / "presets"
 MAX_IMAGES = 10_000_000  # generate.n
 CONFIRM_IMAGES = 100_000  # a plan of more images asks for --yes (deformsim.generate.refusals.check_plan)
 # a variant's name is a folder under DATA/variants/ and part of the report's model folders: a plain name
-VariantName = Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")]
+VARIANT_NAME = r"^[A-Za-z0-9][A-Za-z0-9_.-]*$"  # a variant is a folder: a plain name
+VariantName = Annotated[str, Field(pattern=VARIANT_NAME)]
 ONE_MODEL = {"ensemble": 1, "ensemble_backbones": []}  # train: what a dense target trains (TrainConfig.for_target)
 
 

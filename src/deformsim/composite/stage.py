@@ -43,7 +43,7 @@ from deformsim.composite.effects import apply_effects
 from deformsim.composite.framing import frame_matrix, warp
 from deformsim.composite.maps import MAP_KINDS, move_maps, read_maps, write_maps
 from deformsim.composite.matte import alpha_matte, binary_iou, chroma_matte, inrange_matte
-from deformsim.config import CompositeConfig
+from deformsim.config import VARIANT_NAME, CompositeConfig
 from deformsim.dataset.layout import RENDER_KINDS, SHADOW_KIND, SURFACE_KIND, Layout, image_id
 from deformsim.dataset.manifest import read_manifest
 from deformsim.dataset.paths import dataset_resolver
@@ -55,7 +55,7 @@ from deformsim.parallel import die_with_parent, worker_count
 from deformsim.sampling.streams import stable_int, stream
 from deformsim.schema import MAX_SEED, shown
 
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+_NAME = re.compile(VARIANT_NAME)
 _STATE: dict = {}
 
 
