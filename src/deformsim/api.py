@@ -211,8 +211,8 @@ class Engine:
             predictor.adapter = fit_on(predictor, distinct, adapt)[0]
             prior = predictor.adapter.prior
         if predictor.target == "label":
-            proba, labels = predictor.predict(paths, threshold)
             cut = predictor.cfg.threshold if threshold is None else threshold
+            proba, labels = predictor.predict(paths, cut)
             prediction = Prediction(paths, {"p_deformed": proba, "label": labels}, ("P(deformed)", "label"), cut,
                                     prior)
         else:

@@ -89,11 +89,10 @@ def predict(
     if prediction.prior is not None:
         err_console.print(f"adapted to these {len(prediction.paths)} images: an estimated {prediction.prior:.0%} of "
                           "them deformed", highlight=False, soft_wrap=True)
-    frame = prediction.frame()
     if csv == "-":
-        sys.stdout.write(frame.to_csv(index=False))
+        sys.stdout.write(prediction.frame().to_csv(index=False))
     elif json_:
-        sys.stdout.write(frame.to_json(orient="records", lines=True))
+        sys.stdout.write(prediction.frame().to_json(orient="records", lines=True))
     else:
         _print_rows(prediction)
     if prediction.threshold is not None:
