@@ -190,11 +190,12 @@ SHORTCUTS = {
 
 def shortcut(flag: str):
     """The typer option of the :data:`SHORTCUTS` flag ``flag`` (unset: None, the config's value)."""
-    from deformsim.cli.choices import config_choices, config_values
+    from deformsim.cli.choices import completes, config_values
 
     s = SHORTCUTS[flag]
+    values = config_values(s.key)
     return typer.Option(None, *(s.decls or (flag,)), help=from_config(s.help, s.key) if s.shows_default else s.help,
-                        autocompletion=config_choices(s.key) if config_values(s.key) else None)
+                        autocompletion=completes(*values) if values else None)
 
 
 def shortcut_flags(**values) -> dict[str, tuple[str, object]]:
