@@ -190,8 +190,6 @@ def adapt(
     from deformsim.evaluate.adaptation import run_adaptation
     from deformsim.evaluate.fewshot import parse_ks
 
-    if not 1 <= draws <= 1000:
-        raise UserError(f"--draws must lie in [1, 1000], got {draws}")
     result = run_adaptation(models, real, out, tuple(m.strip() for m in methods.split(",") if m.strip()), folds,
                             seed=seed, progress=progress, ks=parse_ks(k) if k else [], draws=draws)
     adaptation_summary(result)

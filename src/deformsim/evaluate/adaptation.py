@@ -118,6 +118,8 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     recipes = {method: replace(recipe, method=method) for method in methods}  # one line for an unknown method
     if not 2 <= folds <= 20:
         raise UserError(f"--folds must lie in [2, 20], got {folds}")
+    if not 1 <= draws <= 1000:
+        raise UserError(f"--draws must lie in [1, 1000], got {draws}")
     table = _table(real).sort_values("digest").reset_index(drop=True)
     fewest = int(min(table["y"].sum(), (1 - table["y"]).sum()))
     if ks and max(ks) >= fewest:
