@@ -124,17 +124,17 @@ def generate(cfg: Config, out: str | Path, progress: bool = True,
         return _generate(cfg, out, progress, prepared, overwrite)
 
 
-def _generate(cfg: Config, out: str | Path, progress: bool = True,
-              prepared: tuple[Spec, list[str]] | None = None, overwrite: bool = False) -> GenerateResult:
+def _generate(cfg: Config, out: str | Path, progress: bool, prepared: tuple[Spec, list[str]],
+              overwrite: bool) -> GenerateResult:
     """Render ``cfg.generate.n`` images into ``out`` (resuming what is there) and write the manifest.
 
-    ``prepared`` is what :func:`prepare` returned for the same ``cfg`` and ``out``, when the caller already ran it.
+    ``prepared`` is what :func:`prepare` returned for the same ``cfg`` and ``out``.
     ``overwrite``: a dataset in ``out`` made with other settings or inputs, or more samples, is removed as a
     whole first (else it is refused); the same dataset is resumed.
     """
     t0 = time.perf_counter()
     out = Path(out)
-    spec, hdris = prepared or prepare(cfg, out, overwrite)
+    spec, hdris = prepared
     sweep(out)
     if overwrite and existing_dataset(cfg, out, spec) is not None:
         log.info("--overwrite: removing the dataset in %s", out)
