@@ -29,7 +29,27 @@ class OnnxSettings:
     target: str
 
 
-class OnnxPredictor:
+class Labels:
+    """P(deformed) and class names from ``predict_outputs``, for a predictor with ``path``, ``target``, ``classes``
+    and ``cfg.threshold``: :class:`OnnxPredictor` and :class:`deformsim.learn.predict.Predictor`."""
+
+    def _needs(self, target: str) -> None:
+        if self.target != target:
+            raise UserError(f"{self.path} predicts train.target {self.target}, not {target}")
+
+    def predict_proba(self, paths: list[str | Path]) -> np.ndarray:
+        """P(deformed) per image, float64 (N,)."""
+        self._needs("label")
+        return self.predict_outputs(paths)
+
+    def predict(self, paths: list[str | Path], threshold: float | None = None) -> tuple[np.ndarray, list[str]]:
+        """Probabilities and class names at ``threshold`` (default: the training threshold)."""
+        p = self.predict_proba(paths)
+        cut = self.cfg.threshold if threshold is None else threshold
+        return p, [self.classes[int(v >= cut)] for v in p]
+
+
+class OnnxPredictor(Labels):
     """An exported model with the interface of :class:`deformsim.learn.predict.Predictor`'s predictions."""
 
     def __init__(self, path: str | Path):
@@ -58,15 +78,3 @@ class OnnxPredictor:
         out = [self.session.run(None, {name: np.stack([model_input(p, size, crop) for p in paths[i : i + BATCH]])})[0]
                for i in range(0, len(paths), BATCH)]
         return np.concatenate(out).astype(np.float64) if out else np.zeros(0)
-
-    def predict_proba(self, paths: list[str | Path]) -> np.ndarray:
-        """P(deformed) per image, float64 (N,)."""
-        if self.target != "label":
-            raise UserError(f"{self.path} predicts train.target {self.target}, not label")
-        return self.predict_outputs(paths)
-
-    def predict(self, paths: list[str | Path], threshold: float | None = None) -> tuple[np.ndarray, list[str]]:
-        """Probabilities and class names at ``threshold`` (default: the training threshold)."""
-        p = self.predict_proba(paths)
-        cut = self.cfg.threshold if threshold is None else threshold
-        return p, [self.classes[int(v >= cut)] for v in p]

@@ -17,6 +17,7 @@ from deformsim.learn.data import ImageSet
 from deformsim.learn.device import pick_device, set_threads
 from deformsim.learn.features import cached_stem, pass_size, stem_shape
 from deformsim.learn.models import members
+from deformsim.learn.onnx_predict import Labels
 from deformsim.log import progress_bar
 
 LAYERS = ("penultimate", "pooled")
@@ -24,7 +25,7 @@ CHUNK = 512  # images whose cached stem activations are held in memory at once, 
 HELD_BUDGET = 64 << 20  # bytes of stem activations held at once (twice while they are stacked)
 
 
-class Predictor:
+class Predictor(Labels):
     """A trained model in eval mode; ``cfg.image_size`` and ``cfg.threshold`` come from training, and so do the
     test-time options: ``cfg.crop`` crops each image before it is classified, ``cfg.tta_flip`` averages each
     prediction with its mirror image's (a region map mirrored back first). A model with ``train.ensemble_backbones``
@@ -71,15 +72,6 @@ class Predictor:
             stems = cached_stem(self.model, paths[i : i + chunk], size, bs, self._show_progress, crop, flip)
             for z in stems.split(bs):
                 yield z.to(self.device)
-
-    def _needs(self, target: str) -> None:
-        if self.target != target:
-            raise UserError(f"{self.path} predicts train.target {self.target}, not {target}")
-
-    def predict_proba(self, paths: list[str | Path]) -> np.ndarray:
-        """P(deformed) per image, float64 (N,)."""
-        self._needs("label")
-        return self.predict_outputs(paths)
 
     def predict_outputs(self, paths: list[str | Path]) -> np.ndarray:
         """What the model predicts, float64: P(deformed) (N,) (adapted to the user's photos when the model was,
@@ -130,12 +122,6 @@ class Predictor:
         resized = [torch.nn.functional.interpolate(torch.from_numpy(m)[:, None], size=(side, side), mode="bilinear",
                                                    align_corners=False)[:, 0].numpy() for m in maps]
         return np.mean(resized, axis=0)
-
-    def predict(self, paths: list[str | Path], threshold: float | None = None) -> tuple[np.ndarray, list[str]]:
-        """Probabilities and class names at ``threshold`` (default: the training threshold)."""
-        p = self.predict_proba(paths)
-        cut = self.cfg.threshold if threshold is None else threshold
-        return p, [self.classes[int(v >= cut)] for v in p]
 
     @torch.inference_mode()
     def features(self, paths: list[str | Path], layer: str = "penultimate") -> np.ndarray:
