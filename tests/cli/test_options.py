@@ -98,7 +98,7 @@ def test_version_prints_the_package_and_what_it_runs_on(flag):
 
 def test_version_and_help_stay_light():
     code = ("import sys; from typer.testing import CliRunner; from deformsim.cli.app import app; "
-            "r = CliRunner(); [r.invoke(app, a) for a in (['--version'], ['train', '-h'])]; "
+            "r = CliRunner(); [r.invoke(app, a) for a in (['--version'], ['train', '-h'], ['export-data', '-h'])]; "
             "print(sorted(m for m in ('bpy', 'torch', 'pandas') if m in sys.modules))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.stdout.strip() == "[]", done.stderr

@@ -5,7 +5,8 @@ severity attributes, :mod:`.coco`) and ``anomalib`` (its ``Folder`` layout, :mod
 checked to be an image inside the dataset first (:mod:`deformsim.dataset.paths`). Pictures (and masks) are
 hard-linked where the dataset shares OUT's filesystem, else copied (always copied with ``copy``), and the README
 says which; the dataset is never changed. OUT is checked before any work, built beside itself and swapped in
-whole; it records ``export.json`` (kind ``export``).
+whole; it records ``export.json`` (kind ``export``). The package imports what exporting needs only when
+:func:`export_data` runs, so the command line's help and completion read :data:`FORMATS` without pandas.
 """
 
 from __future__ import annotations
@@ -13,13 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from deformsim.atomic import write_json, write_text
-from deformsim.dataset.manifest import read_manifest
 from deformsim.errors import UserError
-from deformsim.export.files import claim_export
-from deformsim.export.source import default_variant, export_table
-from deformsim.log import progress_bar
-from deformsim.outputs import EXPORT, check_apart, check_outside, replacing
 
 FORMATS = ("imagefolder", "coco", "anomalib")
 
@@ -56,6 +51,13 @@ def export_data(data: str | Path, out: str | Path, fmt: str, variant: str | None
     """Export the images of ``variant`` of the dataset at ``data`` (default: its first composited variant, else
     ``black``) into ``out`` in format ``fmt``, hard-linked where possible unless ``copy``. :class:`UserError` for
     bad input, before anything is written."""
+    from deformsim.atomic import write_json, write_text
+    from deformsim.dataset.manifest import read_manifest
+    from deformsim.export.files import claim_export
+    from deformsim.export.source import default_variant, export_table
+    from deformsim.log import progress_bar
+    from deformsim.outputs import EXPORT, check_apart, check_outside, replacing
+
     if fmt not in FORMATS:
         raise UserError(f"unknown export format {fmt!r} (have: {', '.join(FORMATS)})")
     data, out = Path(data), Path(out)
