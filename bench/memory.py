@@ -44,18 +44,21 @@ finally:
 
 # generate with a stand-in worker that ends the process (printing the peak) when handed its first sample.
 FIRST_RENDER = """
-import os, sys
+import os, sys, threading
 from deformsim.generate import local
+
+FIRST = threading.Lock()  # the workers' threads race: one reports, whole lines, and ends the process
 
 class FirstRender:
     pid = 0
     def __init__(self, *args, **kwargs): pass
     def start(self, setup, timeout=None): return {"device": "stand-in", "camera_scale": 1.0}
     def render(self, params):
-        print("first sample", params["index"], file=sys.stderr)
-        hwm = [l.split()[1] for l in open("/proc/self/status") if l.startswith("VmHWM")][0]
-        print("peak-kib", hwm, file=sys.stderr, flush=True)
-        os._exit(0)
+        with FIRST:
+            hwm = [l.split()[1] for l in open("/proc/self/status") if l.startswith("VmHWM")][0]
+            sys.stderr.write(f"first sample {params['index']}\\npeak-kib {hwm}\\n")
+            sys.stderr.flush()
+            os._exit(0)
     def close(self): pass
     kill = close
 
