@@ -160,16 +160,17 @@ class Engine:
         return finetune(Path(model), Path(real), Path(out), recipe or Recipe(), _path(data), variant,
                         overwrite=overwrite, progress=self.progress)
 
-    def adapt(self, model: str | Path, photos: str | Path, out: str | Path, recipe: AdaptRecipe | None = None,
-              overwrite: bool = False):
-        """Adapt a trained model to a folder of unlabelled photos of real parts (no label read); a
-        :class:`deformsim.learn.adapt_stage.Adapted`. A model of other settings or inputs in ``out`` is refused
-        unless ``overwrite``."""
+    def adapt(self, model: str | Path, photos: str | Path | None, out: str | Path, recipe: AdaptRecipe | None = None,
+              overwrite: bool = False, labelled: str | Path | None = None, groups: str = "date"):
+        """Adapt a trained model to a folder of unlabelled photos of real parts (no label read), to ``labelled``
+        ones (``intact/`` + ``deformed/``, shooting sessions by ``groups``: ``date``, ``none`` or a CSV file), or
+        both; a :class:`deformsim.learn.adapt_stage.Adapted`. A model of other settings or inputs in ``out`` is
+        refused unless ``overwrite``."""
         from deformsim.learn.adapt_stage import adapt_model
         from deformsim.learn.adapter import AdaptRecipe
 
-        return adapt_model(Path(model), Path(photos), Path(out), recipe or AdaptRecipe(), overwrite=overwrite,
-                           progress=self.progress)
+        return adapt_model(Path(model), _path(photos), Path(out), recipe or AdaptRecipe(), overwrite=overwrite,
+                           progress=self.progress, labelled=_path(labelled), groups=groups)
 
     def predict(self, model: str | Path, images: Sequence[str | Path], csv: str | Path | None = None,
                 threshold: float | None = None, adapt: AdaptRecipe | None = None) -> Prediction:

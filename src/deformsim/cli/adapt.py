@@ -3,36 +3,56 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Optional
 
 import typer
 
-from deformsim.cli.common import console, err_console, fail_cleanly, note, plain_engine
+from deformsim.cli.common import REAL_HELP, console, err_console, fail_cleanly, note, plain_engine
 
 METHOD_HELP = ("probe: a logistic probe on the photos' frozen features, self-trained on the model's own "
-               "judgements; prior: the share of deformed parts estimated by EM; probe+prior: both")
+               "judgements; prior: the share of deformed parts estimated by EM; probe+prior: both; stack: the model "
+               "plus a residual fitted on the --labelled photos where their cross-validation says it helps "
+               "[default: stack with --labelled, else probe]")
 
 
 def adapt(
     model_dir: Path = typer.Argument(..., help="trained model folder (from deformsim train) or its model.pt"),
-    photos: Path = typer.Option(..., "--photos", help="unlabelled photos of real parts (any folder, searched "
-                                "recursively; no label is read), at least 8"),
+    photos: Optional[Path] = typer.Option(None, "--photos", help="unlabelled photos of real parts (any folder, "
+                                          "searched recursively; no label is read), at least 8"),
     out: Path = typer.Option(..., "--out", help="folder for the adapted model.pt and adapt.json"),
-    method: str = typer.Option("probe", "--method", help=METHOD_HELP),
+    labelled: Optional[Path] = typer.Option(None, "--labelled", help=f"labelled photos of real parts: {REAL_HELP}; "
+                                            "the adapted model refuses to be scored on them"),
+    groups: str = typer.Option("date", "--groups", help="shooting sessions of the --labelled photos, kept apart by "
+                               "the stack's cross-validation: date (EXIF or file name), none, or a path,group CSV file"),
+    method: Optional[str] = typer.Option(None, "--method", help=METHOD_HELP, show_default=False),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace a model in --out made with other settings"),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:
-    """Adapt a trained model to unlabelled photos of real parts; the model is scored on them only as transductive.
+    """Adapt a trained model to photos of real parts: unlabelled (--photos; scoring the model on them is
+    transductive), labelled (--labelled), or both.
 
     An existing model in --out is replaced only when it was made with the same settings and inputs, or with
     --overwrite; the new one is built beside it and swapped in whole."""
     from deformsim.learn.adapter import AdaptRecipe
 
-    result = plain_engine(progress, notify=note(err_console)).adapt(model_dir, photos, out, AdaptRecipe(method=method),
-                                                                    overwrite=overwrite)
-    console.print(f"adapted on {result.photos} photos in {result.seconds:.1f} s: an estimated {result.prior:.0%} "
-                  f"deformed; judged deformed {result.deformed_before:.0%} before, {result.deformed_after:.0%} after",
-                  highlight=False, soft_wrap=True)
+    recipe = AdaptRecipe(method=method or ("stack" if labelled is not None else "probe"))
+    result = plain_engine(progress, notify=note(err_console)).adapt(model_dir, photos, out, recipe, overwrite=overwrite,
+                                                                    labelled=labelled, groups=groups)
+    console.print(f"adapted on {result.photos} photos ({result.labelled} labelled) in {result.seconds:.1f} s: an "
+                  f"estimated {result.prior:.0%} deformed; judged deformed {result.deformed_before:.0%} before, "
+                  f"{result.deformed_after:.0%} after", highlight=False, soft_wrap=True)
+    if result.choice is not None:
+        console.print(stack_line(result.choice), highlight=False, soft_wrap=True)
     console.print(f"saved {result.model_path}", highlight=False, soft_wrap=True)
+
+
+def stack_line(choice) -> str:
+    """What the stack's cross-validation chose, in one line."""
+    if choice.l2 is None and choice.reason:
+        return f"kept the synthetic model as it is: {choice.reason}"
+    losses = ", ".join(f"{k} {v:.3f}" for k, v in choice.losses.items())
+    chose = "no residual" if choice.l2 is None else f"a residual with L2 penalty {choice.l2:g}"
+    return f"cross-validation over {choice.folds} folds chose {chose} (held-out log-loss: {losses})"
 
 
 def register(app: typer.Typer) -> None:

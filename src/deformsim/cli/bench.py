@@ -178,9 +178,11 @@ def adapt(
                               "adapted on the others"),
     seed: int = typer.Option(0, "--seed", help="seed of the folds, the draws and the intervals"),
     k: str = typer.Option("", "--k", help="also comma-separated labelled photos per class (e.g. 1,2,5,10,20): the "
-                          "model beside a probe on those photos alone and the probe on them with the rest unlabelled, "
-                          "scored on the rest"),
+                          "model beside a probe on those photos alone, the probe on them with the rest unlabelled, "
+                          "and the model stacked with a residual on them, scored on the rest"),
     draws: int = typer.Option(5, "--draws", help="draws of the k photos per model"),
+    groups: str = typer.Option("date", "--groups", help="shooting sessions of the photos, which the stacked curve's "
+                               "cross-validation keeps apart: date (EXIF or file name), none, or a path,group CSV file"),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:
     """Adapt a model to real photos without their labels, transductive (adapted on the photos it is scored on) and
@@ -191,7 +193,8 @@ def adapt(
     from deformsim.evaluate.fewshot import parse_ks
 
     result = run_adaptation(models, real, out, tuple(m.strip() for m in methods.split(",") if m.strip()), folds,
-                            seed=seed, progress=progress, ks=parse_ks(k) if k else [], draws=draws)
+                            seed=seed, progress=progress, ks=parse_ks(k) if k else [], draws=draws,
+                            groups=groups)
     adaptation_summary(result)
     console.print(f"results: {out / 'adapt.json'}", highlight=False, soft_wrap=True)
 

@@ -22,13 +22,13 @@ import numpy as np
 
 from deformsim.atomic import write_json
 from deformsim.errors import UserError
-from deformsim.learn.adapter import METHODS, MIN_PHOTOS, AdaptRecipe, fit_adapter
+from deformsim.learn.adapter import MIN_PHOTOS, UNLABELLED, AdaptRecipe, fit_adapter
 from deformsim.log import get_logger
 
 log = get_logger(__name__)
 
 PROTOCOLS = ("transductive", "inductive")
-KSHOT = ("labelled probe", "probe, the rest unlabelled")  # the k-photo curves beside the unadapted model
+KSHOT = ("labelled probe", "probe, the rest unlabelled", "stacked")  # the k-photo curves beside the unadapted model
 
 
 def _folds(n: int, folds: int, seed: int) -> np.ndarray:
@@ -63,12 +63,14 @@ def _row(y: np.ndarray, probs: np.ndarray, threshold: float) -> dict:
     return row
 
 
-def _kshot(p0: np.ndarray, features: np.ndarray, y: np.ndarray, k: int, rng: np.random.Generator,
+def _kshot(p0: np.ndarray, features: np.ndarray, y: np.ndarray, groups: list[str], k: int, rng: np.random.Generator,
            recipe: AdaptRecipe, threshold: float) -> dict[str, float]:
     """Accuracy on the photos left after drawing k labelled ones of each class: the model unadapted, a probe fitted
-    on the k photos' labels alone, and the probe fitted on them and the rest unlabelled (transductive)."""
+    on the k photos' labels alone, the probe fitted on them and the rest unlabelled (transductive), and the model
+    stacked with a residual fitted on the k photos (:mod:`deformsim.learn.stack`, their sessions ``groups``)."""
     from deformsim.evaluate.fewshot import draw
     from deformsim.learn.adapter import fit_logistic
+    from deformsim.learn.stack import fit_stack
 
     chosen, rest = draw(y, k, rng)
     labels = np.full(len(y), -1)
@@ -76,20 +78,21 @@ def _kshot(p0: np.ndarray, features: np.ndarray, y: np.ndarray, k: int, rng: np.
     x = (features - features.mean(0)) / (features.std(0) + 1e-6)  # the photos' pixels, not their labels
     coef, bias = fit_logistic(x[chosen], y[chosen].astype(float), np.ones(len(chosen)), recipe.l2)
     both = fit_adapter(p0, features, recipe, labels)
+    stacked = fit_stack(p0[chosen], features[chosen], y[chosen], [groups[i] for i in chosen])[0]
     scored = {"unadapted": p0[rest], KSHOT[0]: 1 / (1 + np.exp(-(x[rest] @ coef + bias))),
-              KSHOT[1]: both.apply(p0[rest], features[rest])}
+              KSHOT[1]: both.apply(p0[rest], features[rest]), KSHOT[2]: stacked.apply(p0[rest], features[rest])}
     return {name: float(((p >= threshold) == (y[rest] == 1)).mean()) for name, p in scored.items()}
 
 
-def kshot_curves(base: list[np.ndarray], features: list[np.ndarray], y: np.ndarray, ks: list[int], draws: int,
-                 recipe: AdaptRecipe, threshold: float, seed: int) -> list[dict]:
+def kshot_curves(base: list[np.ndarray], features: list[np.ndarray], y: np.ndarray, groups: list[str], ks: list[int],
+                 draws: int, recipe: AdaptRecipe, threshold: float, seed: int) -> list[dict]:
     """Per k and curve: mean accuracy over the models and draws, its standard deviation, and the mean paired
     difference to the unadapted model on the same photos with a 95 % bootstrap interval over the runs."""
     from deformsim.evaluate.fewshot import mean_interval
 
     rows = []
     for k in ks:
-        runs = [_kshot(p0, f, y, k, np.random.default_rng([seed, k, d]), recipe, threshold)
+        runs = [_kshot(p0, f, y, groups, k, np.random.default_rng([seed, k, d]), recipe, threshold)
                 for p0, f in zip(base, features) for d in range(draws)]
         for name in ("unadapted", *KSHOT):
             acc = [r[name] for r in runs]
@@ -101,12 +104,14 @@ def kshot_curves(base: list[np.ndarray], features: list[np.ndarray], y: np.ndarr
     return rows
 
 
-def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str, ...] = METHODS, folds: int = 2,
+def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str, ...] = UNLABELLED, folds: int = 2,
                    recipe: AdaptRecipe = AdaptRecipe(), seed: int = 0, progress: bool = True, ks: list[int] = (),
-                   draws: int = 5) -> dict:
-    """Every method under both protocols on the labelled photos of ``real``, for each of ``models`` (e.g. one per
-    render draw), pooled; with ``ks``, the k-photo curves (:func:`kshot_curves`, ``draws`` draws of the k photos
-    per model); written to ``out/adapt.json``."""
+                   draws: int = 5, groups: str = "date") -> dict:
+    """Every unlabelled method under both protocols on the labelled photos of ``real``, for each of ``models`` (e.g.
+    one per render draw), pooled; with ``ks``, the k-photo curves (:func:`kshot_curves`, ``draws`` draws of the k
+    photos per model; the shooting sessions ``groups``: ``date``, ``none`` or a CSV file, see
+    :mod:`deformsim.dataset.groups`); written to ``out/adapt.json``."""
+    from deformsim.dataset.groups import photo_groups
     from deformsim.evaluate.fewshot import _table
     from deformsim.evaluate.paired import _interval
     from deformsim.learn.adapt_stage import check_adaptable
@@ -116,6 +121,8 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     start = time.perf_counter()
     out = check_folder_target(out, "--out")
     recipes = {method: replace(recipe, method=method) for method in methods}  # one line for an unknown method
+    if labelled := [m for m in methods if m not in UNLABELLED]:
+        raise UserError(f"--methods {labelled[0]} needs labelled photos: the k-photo curves (--k) measure it")
     if not 2 <= folds <= 20:
         raise UserError(f"--folds must lie in [2, 20], got {folds}")
     if not 1 <= draws <= 1000:
@@ -131,6 +138,7 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     for predictor in predictors:
         check_adaptable(predictor)
     paths, y = list(table["path"]), table["y"].to_numpy()
+    sessions = photo_groups(paths, groups)
     threshold = predictors[0].cfg.threshold
     fold = _folds(len(paths), folds, seed)
     base, adapted, priors, feats = [], {}, {}, []
@@ -153,11 +161,11 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
         acc = rows[name]["paired"]["accuracy"]
         log.info("%s: accuracy %.3f (%+.1f points, %+.1f to %+.1f)", name, rows[name]["accuracy"], 100 * acc["diff"],
                  100 * acc["low"], 100 * acc["high"])
-    kshot = kshot_curves(base, feats, y, [k for k in ks if k > 0], draws, recipe, threshold, seed)
+    kshot = kshot_curves(base, feats, y, sessions, [k for k in ks if k > 0], draws, recipe, threshold, seed)
     result = {"models": [str(m) for m in models], "real": str(real), "photos": len(paths), "folds": folds,
               "seed": seed, "recipe": asdict(recipe), "true_share": float(y.mean()), "labels": y.tolist(),
-              "paths": [str(p) for p in paths], "rows": rows, "kshot": kshot, "draws": draws,
-              "seconds": time.perf_counter() - start}
+              "groups": groups, "sessions": sessions, "paths": [str(p) for p in paths], "rows": rows, "kshot": kshot,
+              "draws": draws, "seconds": time.perf_counter() - start}
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "adapt.json", result)
     return result

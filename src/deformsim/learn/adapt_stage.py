@@ -18,6 +18,7 @@ from deformsim.atomic import write_json
 from deformsim.errors import UserError
 from deformsim.identity import digest, file_digest
 from deformsim.learn.adapter import MIN_PHOTOS, Adapter, AdaptRecipe, fit_adapter
+from deformsim.learn.stack import Choice, fit_stack
 from deformsim.log import get_logger
 
 log = get_logger(__name__)
@@ -25,8 +26,9 @@ log = get_logger(__name__)
 
 @dataclass
 class Adapted:
-    """An adapted model in its folder, the photos it adapted on, their estimated share of deformed parts and the
-    share judged deformed before and after adapting."""
+    """An adapted model in its folder, the photos it adapted on (``labelled`` of them with their labels), their
+    estimated share of deformed parts, the share judged deformed before and after adapting, and what a stacked
+    model's cross-validation chose (:class:`deformsim.learn.stack.Choice`, ``None`` for the other methods)."""
 
     model_path: Path
     photos: int
@@ -34,6 +36,8 @@ class Adapted:
     deformed_before: float
     deformed_after: float
     seconds: float
+    labelled: int = 0
+    choice: Choice | None = None
 
 
 def unlabelled_photos(folder: Path, flag: str = "--photos") -> tuple[list[str], list[str]]:
@@ -72,51 +76,89 @@ def check_adaptable(predictor) -> None:
         raise UserError(f"{predictor.path} is adapted already: adapt the model it was made from")
 
 
-def fit_on(predictor, paths: list[str], recipe: AdaptRecipe) -> tuple[Adapter, np.ndarray, np.ndarray]:
+def labelled_photos(folder: Path) -> tuple[list[str], np.ndarray, list[str]]:
+    """The photos of a labelled folder (``intact/`` + ``deformed/``), one per content ordered by sha256, their
+    labels (1 deformed) and digests; one line when the folder is missing or a copy sits in both classes."""
+    from deformsim.dataset.real import real_table
+
+    table = real_table(folder)
+    table["digest"] = [file_digest(p) for p in table["path"]]
+    both = table.groupby("digest")["y"].nunique()
+    if (both > 1).any():
+        raise UserError(f"--labelled {folder}: copies of one photo are labelled both intact and deformed, e.g. "
+                        f"{table.loc[table['digest'] == both.idxmax(), 'path'].iloc[0]}")
+    table = table.drop_duplicates("digest").sort_values("digest")
+    return list(table["path"]), table["y"].to_numpy(), list(table["digest"])
+
+
+def fit_on(predictor, paths: list[str], recipe: AdaptRecipe, labels: np.ndarray | None = None,
+           groups: list[str] | None = None) -> tuple[Adapter, np.ndarray, np.ndarray, Choice | None]:
     """The adapter of ``predictor`` (:class:`deformsim.learn.predict.Predictor`, not adapted yet) fitted on
-    ``paths``, and the photos' probabilities before and after adapting."""
+    ``paths`` (``labels`` 0/1, -1 unlabelled, in shooting sessions ``groups``), the photos' probabilities before
+    and after adapting, and what a stacked adapter's cross-validation chose."""
     check_adaptable(predictor)
+    if recipe.method == "stack" and labels is None:
+        raise UserError("adapt method stack fits labelled photos: give them with --labelled")
     p, features = predictor.outputs_and_features(paths, recipe.probe)
-    adapter = fit_adapter(p, features, recipe)
-    return adapter, p, adapter.apply(p, features)
+    choice = None
+    if recipe.method == "stack":
+        adapter, choice = fit_stack(p, features, labels, groups)
+    else:
+        adapter = fit_adapter(p, features, recipe, labels)
+    return adapter, p, adapter.apply(p, features), choice
 
 
-def adapt_model(model: Path, photos: Path, out: Path, recipe: AdaptRecipe = AdaptRecipe(), overwrite: bool = False,
-                progress: bool = True) -> Adapted:
-    """Adapt ``model`` to the unlabelled ``photos`` and save it into the folder ``out`` (``model.pt``, ``adapt.json``).
+def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe = AdaptRecipe(),
+                overwrite: bool = False, progress: bool = True, labelled: Path | None = None,
+                groups: str = "date") -> Adapted:
+    """Adapt ``model`` to the unlabelled ``photos`` and the ``labelled`` ones (either may be ``None``; shooting
+    sessions by ``groups``, :mod:`deformsim.dataset.groups`) and save it into ``out`` (``model.pt``, ``adapt.json``).
 
-    Refused with one line before any work: see :func:`unlabelled_photos`; a model that is not a label classifier or
-    is adapted already; ``out`` refused as ``deformsim train`` refuses it, or holding the model or the photos.
+    Refused with one line before any work: see :func:`unlabelled_photos` and :func:`labelled_photos`; a model that
+    is not a label classifier or is adapted already; ``out`` refused as ``deformsim train`` refuses it, or holding
+    the model or the photos.
     """
+    from deformsim.dataset.groups import photo_groups
     from deformsim.learn import checkpoint
     from deformsim.learn.predict import Predictor
     from deformsim.outputs import check_apart, check_folder_target, check_outside, claim, replacing
 
     start = time.perf_counter()
+    if photos is None and labelled is None:
+        raise UserError("adapt needs photos: --photos (unlabelled), --labelled, or both")
     out = check_folder_target(out, "--out")
     ckpt, path = checkpoint.read_checkpoint(model)
-    paths, digests = unlabelled_photos(photos)
-    check_apart(out, "--out", {"model": path, "photos": photos})
-    check_outside(out, "--out", {"photos": photos})
+    known, y, known_digests = labelled_photos(labelled) if labelled is not None else ([], np.zeros(0, int), [])
+    paths, digests = unlabelled_photos(photos) if photos is not None else ([], [])
+    kept = [i for i, d in enumerate(digests) if d not in set(known_digests)]  # a labelled photo counts as labelled
+    paths, digests = [paths[i] for i in kept], [digests[i] for i in kept]
+    sources = {"photos": photos, "labelled": labelled}
+    check_apart(out, "--out", {"model": path, **{k: v for k, v in sources.items() if v is not None}})
+    check_outside(out, "--out", {k: v for k, v in sources.items() if v is not None})
+    sessions = photo_groups(known, groups)
     predictor = Predictor(ckpt, path, progress)
     check_adaptable(predictor)
-    identity = {"settings": {"adapt": asdict(recipe)},
-                "inputs": {"model": file_digest(path), "photos": digest(digests)}}
+    identity = {"settings": {"adapt": asdict(recipe), "groups": digest(sessions)},
+                "inputs": {"model": file_digest(path), "photos": digest(digests),
+                           "labelled": digest([f"{d} {int(v)}" for d, v in zip(known_digests, y)])}}
     claim(out, "model", identity, overwrite)
-    adapter, before, after = fit_on(predictor, paths, recipe)
+    labels = np.concatenate([y, np.full(len(paths), -1)]) if known else None
+    adapter, before, after, choice = fit_on(predictor, known + paths, recipe, labels, sessions + ["unlabelled"] * len(paths))
     threshold = predictor.cfg.threshold
     seconds = time.perf_counter() - start
-    result = Adapted(out / checkpoint.MODEL_FILE, len(paths), adapter.prior, float((before >= threshold).mean()),
-                     float((after >= threshold).mean()), seconds)
-    log.info("adapted (%s) on %d photos in %.1f s: estimated %.0f %% deformed; judged deformed %.0f %% -> %.0f %%",
-             recipe.method, len(paths), seconds, 100 * adapter.prior, 100 * result.deformed_before,
-             100 * result.deformed_after)
+    result = Adapted(out / checkpoint.MODEL_FILE, len(known) + len(paths), adapter.prior,
+                     float((before >= threshold).mean()), float((after >= threshold).mean()), seconds, len(known), choice)
+    log.info("adapted (%s) on %d photos (%d labelled) in %.1f s: estimated %.0f %% deformed; judged deformed "
+             "%.0f %% -> %.0f %%", recipe.method, result.photos, len(known), seconds, 100 * adapter.prior,
+             100 * result.deformed_before, 100 * result.deformed_after)
     with replacing(out, identity, "model") as tmp:
         adapted = dict(ckpt, adapter=adapter.to_dict(),
                        adapted_unlabelled=sorted(set(ckpt.get("adapted_unlabelled", [])) | set(digests)))
+        if known:
+            adapted["adapted_on"] = sorted(set(ckpt.get("adapted_on", [])) | set(known_digests))
         checkpoint.write(tmp / checkpoint.MODEL_FILE, adapted)
-        write_json(tmp / "adapt.json", {"model": str(path), "photos": str(photos), "recipe": asdict(recipe),
-                                         "protocol": "unlabelled: labels never read",
+        write_json(tmp / "adapt.json", {"model": str(path), "groups": groups, "recipe": asdict(recipe),
+                                         "folders": {k: None if v is None else str(v) for k, v in sources.items()},
+                                         "protocol": "unlabelled photos' labels never read",
                                          **{k: v for k, v in asdict(result).items() if k != "model_path"}})
     return result
-

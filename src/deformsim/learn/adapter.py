@@ -26,7 +26,8 @@ import numpy as np
 from deformsim.errors import UserError
 
 MIN_PHOTOS = 8  # the fewest unlabelled photos whose feature statistics and prior an adapter estimates
-METHODS = ("probe", "prior", "probe+prior")
+UNLABELLED = ("probe", "prior", "probe+prior")  # what adapts on unlabelled photos alone
+METHODS = (*UNLABELLED, "stack")  # stack: a residual on labelled photos (deformsim.learn.stack)
 
 
 @dataclass(frozen=True)
@@ -40,8 +41,8 @@ class AdaptRecipe:
 
     @property
     def probe(self) -> bool:
-        """Whether the method fits the feature probe (and so needs the photos' features)."""
-        return "probe" in self.method
+        """Whether the method reads the photos' features (all but ``prior``)."""
+        return self.method != "prior"
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:

@@ -71,7 +71,7 @@ def check_unseen(model: str | Path, paths: Iterable[str | Path]) -> None:
     digests = [file_digest(p) for p in paths] if seen or unlabelled else []
     hits = [p for p, d in zip(paths, digests) if d in seen]
     if hits:
-        raise UserError(f"{model} was fine-tuned on {len(hits)} of these images (by content), e.g. {hits[0]}: "
+        raise UserError(f"{model} learnt from the labels of {len(hits)} of these images (by content), e.g. {hits[0]}: "
                         "score it on photos it has not seen")
     if (shared := sum(d in unlabelled for d in digests)):
         log.warning("transductive: %s adapted to %d of these %d images, labels unread (deformsim adapt)", model,
