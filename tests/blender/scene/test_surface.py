@@ -12,7 +12,7 @@ from PIL import Image
 from deformsim.config import load_config
 from deformsim.dataset.layout import Layout, image_id
 from deformsim.hdri import list_hdris
-from deformsim.sampling import draw_surface, sample_params
+from deformsim.sampling import sample_params
 from deformsim.spec.model import load_spec
 from tests.blender.conftest import TINY_RENDER, worker_renders
 
@@ -35,8 +35,8 @@ def scenes(tmp_path_factory):
             True: load_config("quick", {**base, "render.shadow": True, "render.surface": surface})}
     p = dataclasses.replace(sample_params(0, 5, cfgs[True], load_spec(None), list_hdris(None)), pose_tilt=90.0)
     kinds = {k: load_config("quick", {**base, "render.surface": {**surface, "kinds": [k]}}) for k in ("wood", "photo")}
-    wood = dataclasses.replace(p, surface=draw_surface(0, 5, kinds["wood"]))
-    photo = dataclasses.replace(p, index=1, surface=draw_surface(0, 5, kinds["photo"]))
+    ground = {k: sample_params(0, 5, cfg, load_spec(None), list_hdris(None)).surface for k, cfg in kinds.items()}
+    wood, photo = dataclasses.replace(p, surface=ground["wood"]), dataclasses.replace(p, index=1, surface=ground["photo"])
     out = {}
     for on, cfg in cfgs.items():
         layout = Layout(root / str(on))
@@ -86,7 +86,8 @@ def test_every_procedural_kind_renders_its_own_ground(tmp_path):
     cfg = load_config("quick", {**base, "render.surface": {}})
     spec, hdris = load_spec(None), list_hdris(None)
     params = [dataclasses.replace(sample_params(0, 1, cfg, spec, hdris), index=i,
-                                  surface=draw_surface(0, 1, load_config("quick", {**base, "render.surface": {"kinds": [k]}})))
+                                  surface=sample_params(0, 1, load_config("quick", {**base, "render.surface": {"kinds": [k]}}),
+                                                        spec, hdris).surface)
               for i, k in enumerate(kinds)]
     replies = worker_renders(tmp_path / "w.log", cfg, tmp_path, params)
     assert all("done" in r for r in replies), replies
