@@ -9,7 +9,7 @@ from deformsim.sampling.streams import generator, stable_int, stream
 SEED, INDEX, IMAGE = 7, 3, "000003_c1"
 # The first uniform of each stream for SEED, sample INDEX and image IMAGE, frozen from the hand-numbered seed lists
 # (default_rng([seed, index, 1..5]), default_rng([seed, stable_int(id), 0xF11F]), ...) the streams replace, and for
-# the streams added since, from their first release (shape, appearance, regions, print).
+# the streams added since, from their first release (shape, appearance, regions, print, sun).
 FIRST = {
     "sample": 0.9750335537195014,
     "source": 0.5324211967452813,
@@ -21,6 +21,7 @@ FIRST = {
     "appearance": 0.40663309299524075,
     "regions": 0.2867348686972654,
     "print": 0.825905643333741,
+    "sun": 0.5388613156610552,
     "image": 0.7726612477369958,
     "flip": 0.23443016294682661,
     "shadow": 0.45526413157163215,

@@ -14,6 +14,7 @@ from deformsim.sampling.draws import draw_drop, draw_lights, draw_surface
 from deformsim.sampling.feature import Given, RenderFeature
 from deformsim.sampling.photos import surface_photos
 from deformsim.sampling.streams import Stream
+from deformsim.sampling.sun import SUN
 from deformsim.spec.model import Spec
 
 AREA_LIGHTS = RenderFeature(
@@ -47,7 +48,7 @@ SURFACE = RenderFeature(
     listing=lambda cfg: surface_photos(cfg.render.surface.photos) if "photo" in cfg.render.surface.kinds else None,
 )
 
-FEATURES: tuple[RenderFeature, ...] = (AREA_LIGHTS, DROP, DENSE, SHADOW, SURFACE)
+FEATURES: tuple[RenderFeature, ...] = (AREA_LIGHTS, DROP, DENSE, SHADOW, SURFACE, SUN)
 
 # Every named stream: sampling's and compositing's, and the features' (tests/sampling/test_streams.py: none draw alike).
 STREAMS: dict[str, Stream] = {**streams.STREAMS, **{f.name: f.stream for f in FEATURES if f.stream is not None}}
