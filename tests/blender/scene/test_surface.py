@@ -11,6 +11,8 @@ from PIL import Image
 
 from deformsim.config import load_config
 from deformsim.dataset.layout import Layout, image_id
+from deformsim.dataset.manifest import rows_for
+from deformsim.dataset.rendered import Rendered
 from deformsim.hdri import list_hdris
 from deformsim.sampling import sample_params
 from deformsim.spec.model import load_spec
@@ -41,6 +43,7 @@ def scenes(tmp_path_factory):
     for on, cfg in cfgs.items():
         layout = Layout(root / str(on))
         out[on] = (layout, worker_renders(root / f"{on}.log", cfg, layout.root, [wood, photo] if on else [wood]))
+    out["params"] = [wood, photo]
     return out
 
 
@@ -51,11 +54,14 @@ def _read(layout: Layout, kind: str, cam: int, sample: int = 0) -> np.ndarray:
 def test_reply_names_the_scene_images(scenes):
     assert all(r["kinds"] == ["shadow", "surface"] for r in scenes[True][1]), scenes[True][1]
     assert scenes[False][1][0]["kinds"] == [] and scenes[False][1][0]["image_columns"] == [{}, {}]
-    for r, kind in zip(scenes[True][1], ("wood", "photo")):
+    layout = scenes[True][0]
+    for r, p, kind in zip(scenes[True][1], scenes["params"], ("wood", "photo")):
         for c, cols in enumerate(r["image_columns"]):
-            assert list(cols) == ["shadow", "surface", "surface_params"]
+            assert list(cols) == ["shadow", "surface"]
             assert cols["surface"] == f"images/surface/{image_id(r['done'], c)}.png"
-            assert json.loads(cols["surface_params"])["kind"] == kind
+        for row in rows_for(p, layout, Rendered.from_dict(r)):  # the drawn ground beside the scene in the manifest
+            assert row["surface"] == f"images/surface/{row['id']}.png"
+            assert json.loads(row["surface_params"])["kind"] == kind
 
 
 def test_rgba_and_variants_unchanged_by_surface(scenes):
