@@ -18,42 +18,38 @@ from deformsim.spec.model import load_spec
 
 HDRIS = ["city", "studio"]
 SUN = {"lighting.sun": {"share": 0.5, "strength": [2, 3], "elevation": [30, 40], "angle": [1, 2]}}
+SPEC = load_spec()
 
 
-@pytest.fixture(scope="module")
-def spec():
-    return load_spec()
-
-
-def test_the_sun_is_off_by_default_and_moves_no_other_draw_when_on(spec):
+def test_the_sun_is_off_by_default_and_moves_no_other_draw_when_on():
     off, on = load_config("quick"), load_config("quick", SUN)
     for i in range(20):
-        a, b = sample_params(i, 3, off, spec, HDRIS), sample_params(i, 3, on, spec, HDRIS)
+        a, b = sample_params(i, 3, off, SPEC, HDRIS), sample_params(i, 3, on, SPEC, HDRIS)
         assert a.sun is None and "sun" not in a.to_dict()  # records without the sun as they were
         assert b.sun is not None and dataclasses.replace(b, sun=None) == a
         assert SampleParams.from_dict(json.loads(json.dumps(b.to_dict()))) == b  # as the worker receives it
 
 
-def test_the_sun_lights_its_share_of_samples_within_its_ranges(spec):
-    suns = [sample_params(i, 5, load_config("quick", SUN), spec, HDRIS).sun for i in range(200)]
+def test_the_sun_lights_its_share_of_samples_within_its_ranges():
+    suns = [sample_params(i, 5, load_config("quick", SUN), SPEC, HDRIS).sun for i in range(200)]
     lit = [s for s in suns if s.strength > 0]
     assert 0.4 < len(lit) / len(suns) < 0.6
     assert all(2 <= s.strength <= 3 and 30 <= s.elevation <= 40 and 1 <= s.angle <= 2 for s in lit)
     assert all(0 <= s.azimuth < 360 for s in suns) and len({round(s.azimuth) for s in suns}) > 100
 
 
-def test_the_manifest_records_the_sun_only_when_on(spec, tmp_path):
+def test_the_manifest_records_the_sun_only_when_on(tmp_path):
     rendered = Rendered(index=0, render_seconds=[0.1] * 4)
-    p = sample_params(0, 5, load_config("quick", SUN), spec, HDRIS)
+    p = sample_params(0, 5, load_config("quick", SUN), SPEC, HDRIS)
     row = rows_for(p, Layout(tmp_path), rendered)[0]
     assert (row["sun_azimuth"], row["sun_strength"], row["sun_angle"]) == (p.sun.azimuth, p.sun.strength, p.sun.angle)
-    plain = rows_for(sample_params(0, 5, load_config("quick"), spec, HDRIS), Layout(tmp_path), rendered)[0]
+    plain = rows_for(sample_params(0, 5, load_config("quick"), SPEC, HDRIS), Layout(tmp_path), rendered)[0]
     assert not any(k.startswith("sun_") for k in plain)
 
 
-def test_the_sun_changes_the_datasets_identity_but_not_its_render_time(spec):
+def test_the_sun_changes_the_datasets_identity_but_not_its_render_time():
     off, on = load_config("quick"), load_config("quick", SUN)
-    assert data_name(on, spec) != data_name(off, spec)
+    assert data_name(on, SPEC) != data_name(off, SPEC)
     assert render_seconds(on) == render_seconds(off)  # one light more, no extra render
 
 
