@@ -22,9 +22,9 @@ def test_every_field_is_described():
 
 def test_the_walk_gives_keys_types_defaults_and_rules():
     assert [key for key, _ in sections()] == [
-        "object", "object.shapes", "camera", "pose", "lighting", "lighting.area_lights", "deform", "deform.sources",
-        "render", "render.region_visible", "render.surface", "render.appearance", "generate", "composite",
-        "composite.effects", "train"]
+        "object", "object.shapes", "camera", "pose", "lighting", "lighting.area_lights", "lighting.sun", "deform",
+        "deform.sources", "render", "render.region_visible", "render.surface", "render.appearance", "generate",
+        "composite", "composite.effects", "train"]
     camera = {f.key: f for f in fields(type(Config().camera), "camera")}
     assert camera["camera.fill"].kind == "[min, max] (0 < min ≤ max ≤ 1) or null" and camera["camera.fill"].default is None
     assert camera["camera.polar"].kind == "[min, max] (0 ≤ min ≤ max ≤ 180)"

@@ -10,7 +10,10 @@ from deformsim.config import load_config
 from deformsim.dataset.layout import Layout
 from deformsim.dataset.manifest import rows_for
 from deformsim.dataset.rendered import Rendered
-from deformsim.sampling import SampleParams, draw_drop, sample_params
+from deformsim.sampling import SampleParams, sample_params
+from deformsim.sampling.draws import draw_drop
+from deformsim.sampling.features import DROP
+from deformsim.sampling.streams import generator
 from deformsim.spec.model import load_spec
 
 HDRIS = ["city", "courtyard", "forest", "interior", "night", "studio", "sunrise", "sunset"]
@@ -64,10 +67,10 @@ def test_drop_rotation_is_a_deterministic_unit_quaternion_per_seed_and_index():
 
 
 def test_drop_upright_share_starts_standing_on_an_end():
-    standing = [_up_angle(draw_drop(i, 3, 1.0)) for i in range(500)]
+    standing = [_up_angle(draw_drop(generator(DROP.stream, 3, i), 1.0)) for i in range(500)]
     assert all(a <= 15 + 1e-9 or a >= 165 - 1e-9 for a in standing)
     assert 0.4 < np.mean([a <= 15 for a in standing]) < 0.6  # either end
-    uniform = np.array([_up_angle(draw_drop(i, 3, 0.0)) for i in range(4000)])
+    uniform = np.array([_up_angle(draw_drop(generator(DROP.stream, 3, i), 0.0)) for i in range(4000)])
     assert abs(np.mean(np.cos(np.radians(uniform)))) < 0.03 and abs(np.mean(uniform < 60) - 0.25) < 0.03  # uniform
 
 

@@ -39,9 +39,9 @@ def test_the_plan_names_the_tiles_their_time_and_the_bake_with_its_duration():
                                                        "on 2 cores")
     text = plan_message(states, 24, 5.0)
     assert "baking its 24 scenarios first, about 5 min" in text and "--no-bank" in text
-    render = load_config("quick", {"render.resolution": 192, "render.samples": 16}).render
-    assert render_seconds(render) > render_seconds(load_config("quick", {"render.resolution": 64}).render)
-    assert WORKER_START_S + 17 * render_seconds(render) < 600  # the default preview of the can: minutes, not hours
+    cfg = load_config("quick", {"render.resolution": 192, "render.samples": 16})
+    assert render_seconds(cfg) > render_seconds(load_config("quick", {"render.resolution": 64}))
+    assert WORKER_START_S + 17 * render_seconds(cfg) < 600  # the default preview of the can: minutes, not hours
 
 
 def test_every_caption_reads_whole_at_the_sheets_tile_size():

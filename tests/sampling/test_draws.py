@@ -15,7 +15,7 @@ from deformsim.dataset.manifest import rows_for
 from deformsim.dataset.rendered import Rendered
 from deformsim.errors import UserError
 from deformsim.generate.identity import data_name, input_digests
-from deformsim.sampling import CAN_SIZES, draw_surface, sample_params
+from deformsim.sampling import CAN_SIZES, sample_params
 from deformsim.spec.model import load_spec
 
 HDRIS = ["city", "studio"]
@@ -141,11 +141,11 @@ def test_a_missing_or_empty_photo_folder_gives_one_line(spec, tmp_path):
         assert "render.appearance.photos" in str(exc.value) and "\n" not in str(exc.value)
 
 
-def test_a_surface_value_range_sets_the_grounds_brightness_and_moves_nothing_else():
+def test_a_surface_value_range_sets_the_grounds_brightness_and_moves_nothing_else(spec):
     base = {"render.surface": {"kinds": ["concrete"]}}
-    own = [draw_surface(i, 3, load_config("quick", base)) for i in range(40)]
-    dark = [draw_surface(i, 3, load_config("quick", {"render.surface": {"kinds": ["concrete"], "value": [0.1, 0.2]}}))
-            for i in range(40)]
+    own = [sample_params(i, 3, load_config("quick", base), spec, HDRIS).surface for i in range(40)]
+    darker = load_config("quick", {"render.surface": {"kinds": ["concrete"], "value": [0.1, 0.2]}})
+    dark = [sample_params(i, 3, darker, spec, HDRIS).surface for i in range(40)]
     assert all(0.1 <= d.value <= 0.2 for d in dark) and max(o.value for o in own) > 0.4
     assert [dataclasses.replace(d, value=0) for d in dark] == [dataclasses.replace(o, value=0) for o in own]
     with pytest.raises(Exception, match="value"):

@@ -1,7 +1,9 @@
 """The seam of optional render features: the scene a worker builds once, and the interface each feature implements.
 
-A feature (area lights, drop poses, dense maps, shadow, surface) is one class, listed in
-:data:`deformsim.blender.features.FEATURES`. It is set up once per worker when its config option is on, then
+A feature (area lights, drop poses, dense maps, shadow, surface) is declared once in the registry
+:data:`deformsim.sampling.features.FEATURES` (its config section, draw, manifest columns, image kinds, cost), which
+names its Blender side: one class implementing :class:`Feature`. It is set up once per worker when its config
+option is on (:func:`deformsim.blender.features.set_up`), then
 :func:`deformsim.blender.passes.render.render_sample` calls its hooks for every sample, in the registry's order:
 :meth:`~Feature.place` (at most one feature puts the part in place), :meth:`~Feature.apply` before the
 cameras, :meth:`~Feature.image` after each camera's ``rgba`` render, :meth:`~Feature.render_pass` for the
@@ -20,6 +22,8 @@ from deformsim.blender.scene.world import World
 from deformsim.config import Config
 from deformsim.dataset.layout import Layout
 from deformsim.sampling import SampleParams
+from deformsim.sampling.feature import RenderFeature
+from deformsim.sampling.features import FEATURES
 from deformsim.spec.model import Spec
 
 
@@ -45,17 +49,25 @@ class RenderContext:
 class Feature:
     """One optional render feature. Every hook does nothing unless the feature overrides it."""
 
-    kinds: tuple[str, ...] = ()  # image kinds it writes per camera: a manifest path column each
-    extra_pass: bool = False  # its one kind comes from one more render per camera, after the sample's other images
-
     def __init__(self, ctx: RenderContext):
         """Set up once per worker, on the scene the worker has built."""
         self.ctx = ctx
 
-    @staticmethod
-    def on(cfg: Config) -> bool:
-        """Whether ``cfg`` turns the feature on."""
-        raise NotImplementedError
+    @property
+    def declared(self) -> RenderFeature:
+        """Its declaration in the registry (:data:`deformsim.sampling.features.FEATURES`)."""
+        name = f"{type(self).__module__}:{type(self).__qualname__}"
+        return next(f for f in FEATURES if f.blender == name)
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """The image kinds it writes per camera: a manifest path column each."""
+        return self.declared.kinds
+
+    @property
+    def extra_pass(self) -> bool:
+        """Whether its one kind comes from one more render per camera, after the sample's other images."""
+        return self.declared.renders > 0
 
     def place(self, p: SampleParams) -> tuple[float, float, float] | None:
         """Put the part where sample ``p`` has it, after the rig; return the point the cameras aim at, or None to

@@ -18,6 +18,7 @@ from deformsim.dataset.paths import file_stem
 from deformsim.dataset.rendered import Rendered
 from deformsim.errors import UserError
 from deformsim.sampling import SampleParams
+from deformsim.sampling.features import feature_columns
 from deformsim.schema import shown
 
 # Columns that measure the run rather than describe the data: excluded when comparing manifests.
@@ -30,8 +31,9 @@ NUMERIC = ("sample", "camera", "y", "seed", "pair", "extent", "max_disp_mm", "vi
 
 def rows_for(p: SampleParams, layout: Layout, rendered: Rendered, camera_scale: float = 1.0) -> list[dict]:
     """The manifest rows of one sample, one per camera: its drawn parameters, the worker's columns for the whole
-    sample after its drawn pose (with ``pose.mode`` drop: ``rest_qw..rest_qz``, ``rest_tilt``, ...), the image
-    paths and timing, then each image's columns from the worker's render features (their image paths first)."""
+    sample after its drawn pose (with ``pose.mode`` drop: ``rest_qw..rest_qz``, ``rest_tilt``, ...), the render
+    features' drawn columns (by the registry, :mod:`deformsim.sampling.features`), the image paths and timing, then
+    each image's columns from the worker's render features (their image paths first)."""
     rows = []
     framing = framing_columns(p)
     for c, cam in enumerate(p.cameras):
@@ -54,8 +56,8 @@ def rows_for(p: SampleParams, layout: Layout, rendered: Rendered, camera_scale: 
             "tab": p.tab,
             "pose_tilt": p.pose_tilt,
             "pose_axis": p.pose_axis,
-            **({f"drop_q{a}": v for a, v in zip("wxyz", p.drop_rotation)} if p.drop_rotation else {}),
             **rendered.sample_columns,
+            **feature_columns(p),
             "hdri": p.hdri,
             "hdri_rotation": p.hdri_rotation,
             "hdri_strength": p.hdri_strength,
@@ -66,7 +68,6 @@ def rows_for(p: SampleParams, layout: Layout, rendered: Rendered, camera_scale: 
             "camera_scale": camera_scale,
             "design": json.dumps(p.design.__dict__ if p.design else None, sort_keys=True),
             "material": json.dumps(p.material.to_dict() if p.material else None, sort_keys=True),
-            "lights": json.dumps([lp.__dict__ for lp in p.lights], sort_keys=True),
             **shape_columns(p),
             **appearance_columns(p),
             **{kind: layout.rel(layout.image(kind, iid)) for kind in RENDER_KINDS},

@@ -15,7 +15,8 @@ from deformsim.bank.store import bank_key
 from deformsim.config import Config
 from deformsim.hdri import hdri_files
 from deformsim.identity import content_inputs, digest, file_digest, files_digest, settings
-from deformsim.sampling import artwork_photos, surface_photos
+from deformsim.sampling import artwork_photos
+from deformsim.sampling.features import SURFACE, listings
 from deformsim.spec.model import Spec, check_mesh_file, load_spec
 
 # The renderer's revision: raised whenever the Blender side renders the same settings differently, so no
@@ -30,8 +31,7 @@ def data_settings(cfg: Config) -> dict:
 
 def texture_photos(cfg: Config) -> list[str] | None:
     """The surface texture photos the config draws from (``render.surface`` with kind photo), else None."""
-    s = cfg.render.surface
-    return surface_photos(s.photos) if s is not None and "photo" in s.kinds else None
+    return listings(cfg).get(SURFACE.name)
 
 
 def appearance_photos(cfg: Config) -> list[str] | None:

@@ -11,12 +11,13 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from deformsim.config import CONFIRM_IMAGES, Config, RenderConfig
-from deformsim.dataset.layout import Layout
+from deformsim.config import CONFIRM_IMAGES, Config
+from deformsim.dataset.layout import RENDER_KINDS, Layout
 from deformsim.errors import UserError
 from deformsim.generate.identity import data_settings, input_digests
 from deformsim.identity import content_inputs
 from deformsim.outputs import check_kind, first_difference, read_inputs
+from deformsim.sampling.features import extra_renders, png_bytes
 from deformsim.schema import read_mapping, shown
 from deformsim.spec.mesh_numbers import nonfinite_vertices
 from deformsim.spec.model import Spec, check_mesh_file
@@ -66,11 +67,11 @@ def check_probe(mesh: Path, probed: dict) -> list[float]:
     return size
 
 
-def render_seconds(r: RenderConfig) -> float:
-    """About how long one image of render settings ``r`` (a config's ``render``) takes on a 2-core machine
-    (docs/benchmarks.md): a shadow or surface scene is one more render."""
-    scenes = int(r.shadow) + int(r.surface is not None)
-    return (1.5 + 2e-6 * r.resolution**2 * r.samples) * (1 + scenes)
+def render_seconds(cfg: Config) -> float:
+    """About how long one image of ``cfg`` takes on a 2-core machine (docs/experiments/timings.md): each extra
+    render of its features (:func:`~deformsim.sampling.features.extra_renders`) takes as long as ``rgba``'s."""
+    r = cfg.render
+    return (1.5 + 2e-6 * r.resolution**2 * r.samples) * (1 + extra_renders(cfg))
 
 
 def check_plan(cfg: Config, yes: bool) -> None:
@@ -79,10 +80,10 @@ def check_plan(cfg: Config, yes: bool) -> None:
     n = cfg.generate.n
     if n <= CONFIRM_IMAGES or yes:
         return
-    r = cfg.render
-    pixels, scenes = r.resolution**2, int(r.shadow) + int(r.surface is not None)  # the extra renders per image
-    seconds = n * render_seconds(r)
-    disk = n * pixels * (0.65 * (3 + scenes) + (1.5 if r.dense else 0))  # bytes of PNG per pixel of each kind
+    pixels = cfg.render.resolution**2
+    seconds = n * render_seconds(cfg)
+    # bytes of PNG per pixel: 0.65 per rendered image (rgba, black, green and one per extra render), and the rest
+    disk = n * pixels * (0.65 * (len(RENDER_KINDS) + extra_renders(cfg)) + png_bytes(cfg))
     raise UserError(f"generate.n {n} is more than {CONFIRM_IMAGES} images: about {seconds / 3600:,.0f} hours of "
                     f"rendering on a 2-core machine and {disk / 1e9:,.0f} GB of disk; pass --yes to start it")
 

@@ -83,7 +83,7 @@ def render_preview(spec_path: Path | None, mesh: Path | None, out: Path, resolut
         states = preview_states(base, openings=bool(spec.openings.seal),
                                 bank=entry_names(spec.simulation) if bank else [])
         to_bake = len(entry_names(spec.simulation)) if bank and not is_complete(bank_dir(spec, mesh), spec) else 0
-        log.info(plan_message(states, to_bake, render_seconds(cfg.render)))
+        log.info(plan_message(states, to_bake, render_seconds(cfg)))
         if bank:
             bake(spec, spec_path, mesh, progress=progress)
         layout = Layout(Path(tmp))

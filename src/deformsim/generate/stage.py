@@ -36,6 +36,7 @@ from deformsim.hdri import drawn_hdris
 from deformsim.log import get_logger
 from deformsim.outputs import check_apart, check_folder_target, check_no_nested, check_outside, locked, remove_folder, sweep
 from deformsim.sampling import allowed_families, sample_params
+from deformsim.sampling.features import listings
 from deformsim.spec.model import Spec, load_spec, units_hint
 from deformsim.version import __version__
 
@@ -150,8 +151,8 @@ def _generate(cfg: Config, out: str | Path, progress: bool, prepared: tuple[Spec
     remove_partial_files(layout)
 
     n = n_samples(cfg)
-    photos, artwork = texture_photos(cfg), appearance_photos(cfg)
-    todo = Todo(n, finished(layout, n), lambda i: sample_params(i, cfg.generate.seed, cfg, spec, hdris, photos, artwork))
+    listed, artwork = listings(cfg), appearance_photos(cfg)
+    todo = Todo(n, finished(layout, n), lambda i: sample_params(i, cfg.generate.seed, cfg, spec, hdris, listed, artwork))
     if len(todo) and cfg.deform.sources.uses_bank:
         bake(spec, cfg.object.spec, cfg.object.mesh, progress)  # once; cached for every later run
     views = len(cfg.camera.azimuth_quadrants)

@@ -1,5 +1,6 @@
-"""The draws of the optional parts of a sample, each from a stream of its own (:mod:`deformsim.sampling.streams`),
-so a config without the option draws exactly what it drew without it, and turning one on moves no other draw."""
+"""The draws of the optional parts of a sample, each from a stream of its own (:mod:`deformsim.sampling.streams`, or
+a render feature's: :mod:`deformsim.sampling.features`), so a config without the option draws exactly what it drew
+without it, and turning one on moves no other draw."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from deformsim.sampling.params import (
     ShapeParams,
     SurfaceParams,
 )
-from deformsim.sampling.photos import artwork_photos, surface_photos
+from deformsim.sampling.photos import artwork_photos
 from deformsim.sampling.streams import stream
 from deformsim.sampling.tables import CAN_SIZES, CUT_SIDES, LIGHT_KINDS, SURFACE_COLOURS
 from deformsim.spec.model import Finish, Material, Print, Spec
@@ -75,11 +76,10 @@ def _draw_print(rng: np.random.Generator, spec: Print) -> PrintParams | None:
     return PrintParams(ink=ink, style=style, seed=layout) if printed else None
 
 
-def draw_drop(index: int, seed: int, upright: float) -> tuple[float, float, float, float]:
+def draw_drop(rng: np.random.Generator, upright: float) -> tuple[float, float, float, float]:
     """``pose.mode`` drop: the start orientation (unit quaternion w, x, y, z). With probability ``upright`` the part
     starts standing on one of its ends (either, tilted up to 15 degrees, any turn about the vertical), else in a
     uniformly random orientation."""
-    rng = stream("drop", seed, index)
     q = rng.normal(size=4)
     stand, flip = rng.uniform() < upright, rng.uniform() < 0.5
     yaw, tilt, axis = rng.uniform(0, 2 * np.pi), np.radians(rng.uniform(0, 15)), rng.uniform(0, 2 * np.pi)
@@ -96,12 +96,9 @@ def draw_drop(index: int, seed: int, upright: float) -> tuple[float, float, floa
     return tuple(float(v) for v in q)
 
 
-def draw_lights(index: int, seed: int, cfg: Config, cameras: tuple[CameraParams, ...]) -> tuple[LightParams, ...]:
+def draw_lights(rng: np.random.Generator, cfg: Config, cameras: tuple[CameraParams, ...]) -> tuple[LightParams, ...]:
     """``lighting.area_lights``: the sample's area lights. A ring light goes on the axis of one of ``cameras``."""
     a = cfg.lighting.area_lights
-    if a.count[1] == 0:
-        return ()
-    rng = stream("lights", seed, index)
     lights = []
     for _ in range(int(rng.integers(a.count[0], a.count[1] + 1))):
         kind = a.kinds[int(rng.integers(len(a.kinds)))]
@@ -124,12 +121,10 @@ def draw_lights(index: int, seed: int, cfg: Config, cameras: tuple[CameraParams,
     return tuple(lights)
 
 
-def draw_surface(index: int, seed: int, cfg: Config, photos: list[str] | None = None) -> SurfaceParams | None:
-    """``render.surface``: the sample's ground. ``photos``: :func:`surface_photos` of the config's folder."""
+def draw_surface(rng: np.random.Generator, cfg: Config, photos: list[str] | None) -> SurfaceParams:
+    """``render.surface``: the sample's ground. ``photos``: :func:`surface_photos` of the config's folder (None
+    without kind photo)."""
     s = cfg.render.surface
-    if s is None:
-        return None
-    rng = stream("surface", seed, index)
     kind = s.kinds[int(rng.integers(len(s.kinds)))]
     c = SURFACE_COLOURS[kind] if s.value is None else {**SURFACE_COLOURS[kind], "value": s.value}
     hue, sat, val, rough = (float(rng.uniform(*c[k])) for k in ("hue", "saturation", "value", "roughness"))
@@ -137,7 +132,6 @@ def draw_surface(index: int, seed: int, cfg: Config, photos: list[str] | None = 
     rotation, offset = float(rng.uniform(0, 360)), (float(rng.uniform()), float(rng.uniform()))
     photo = ""
     if kind == "photo":
-        photos = photos if photos is not None else surface_photos(s.photos)
         photo = photos[int(rng.integers(len(photos)))]
     return SurfaceParams(kind=kind, hue=hue, saturation=sat, value=val, roughness=rough, scale=scale,
                          rotation=rotation, offset=offset, photo=photo)

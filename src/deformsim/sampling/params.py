@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from deformsim.sampling.records import Record, optional
+from deformsim.sampling.sun import SunParams
 
 
 @dataclass(frozen=True)
@@ -152,6 +153,7 @@ class SampleParams(Record):
     shape: ShapeParams | None = optional(None)  # object.shapes: the part's drawn shape; None = as built
     appearance: AppearanceParams | None = optional(None)  # render.appearance: artwork and finish; None = off
     pair: int | None = optional(None)  # generate.paired: the deformed twin whose draws (all but the damage) it shares
+    sun: SunParams | None = optional(None)  # lighting.sun: the sample's hard key light; None = off
 
     @property
     def deformed(self) -> bool:

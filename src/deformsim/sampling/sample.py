@@ -8,17 +8,8 @@ import numpy as np
 
 from deformsim.config import Config
 from deformsim.errors import UserError
-from deformsim.sampling.draws import (
-    draw_appearance,
-    draw_drop,
-    draw_finish,
-    draw_framing,
-    draw_lights,
-    draw_prints,
-    draw_shape,
-    draw_source,
-    draw_surface,
-)
+from deformsim.sampling.draws import draw_appearance, draw_finish, draw_framing, draw_prints, draw_shape, draw_source
+from deformsim.sampling.features import draw_features
 from deformsim.sampling.params import CameraParams, CanDesign, SampleParams
 from deformsim.sampling.streams import stream
 from deformsim.sampling.tables import BRAND_WORDS
@@ -45,10 +36,10 @@ def allowed_families(cfg: Config, spec: Spec) -> list[int]:
 
 
 def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[str],
-                  photos: list[str] | None = None, artwork: list[str] | None = None) -> SampleParams:
-    """Draw sample ``index`` of a run seeded ``seed``. ``hdris`` are the available HDRI names; ``photos``: the
-    surface texture photos (:func:`surface_photos`), ``artwork``: the appearance photos (:func:`artwork_photos`;
-    each listed here when None and the config uses them)."""
+                  listed: dict[str, list[str] | None] | None = None, artwork: list[str] | None = None) -> SampleParams:
+    """Draw sample ``index`` of a run seeded ``seed``. ``hdris`` are the available HDRI names; ``listed``: the
+    render features' input files (:func:`~deformsim.sampling.features.listings`), ``artwork``: the appearance
+    photos (:func:`artwork_photos`; each listed here when None and the config uses them)."""
     if not hdris:
         raise ValueError("no HDRI available")
     label = label_for(index, cfg.generate.intact_fraction)
@@ -151,10 +142,8 @@ def sample_params(index: int, seed: int, cfg: Config, spec: Spec, hdris: list[st
         pose_axis=pose_axis,
         bank=bank,
         bank_amount=bank_amount,
-        drop_rotation=draw_drop(pair, seed, cfg.pose.drop_upright) if cfg.pose.mode == "drop" else (),
-        lights=draw_lights(pair, seed, cfg, cameras),
-        surface=draw_surface(pair, seed, cfg, photos),
         shape=draw_shape(pair, seed, cfg, spec),
         appearance=draw_appearance(pair, seed, cfg, spec, artwork),
         pair=pair if cfg.generate.paired else None,
+        **draw_features(pair, seed, cfg, spec, cameras, listed),
     )

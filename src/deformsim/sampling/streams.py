@@ -3,8 +3,9 @@
 A stream's generator is ``default_rng([seed, *keys, *tail])``: ``keys`` say which sample or image it draws for,
 ``tail`` tells the streams of one key apart. Each option with a stream of its own draws without moving any other
 draw, so turning it on leaves everything else as it was. A new stream is one line of :data:`STREAMS`, with a tail
-no stream of the same keys uses. With ``generate.paired`` a sample's streams take its pair's index (the deformed
-twin's), and an image's streams its twin's image id, so twins draw alike (:func:`deformsim.sampling.sample_params`).
+no stream of the same keys uses; a render feature declares its own (:data:`deformsim.sampling.features.STREAMS` holds
+both). With ``generate.paired`` a sample's streams take its pair's index (the deformed twin's), and an image's
+streams its twin's image id, so twins draw alike (:func:`deformsim.sampling.sample_params`).
 """
 
 from __future__ import annotations
@@ -24,9 +25,6 @@ class Stream(NamedTuple):
 STREAMS: dict[str, Stream] = {
     "sample": Stream(("index",), (), "a sample's deformation, openings, HDRI, cameras, design, material and tilt"),
     "source": Stream(("index",), (1,), "a deformed sample's source, bank entry and amount (deform.sources)"),
-    "drop": Stream(("index",), (2,), "the start orientation of pose.mode drop"),
-    "lights": Stream(("index",), (3,), "the sample's area lights (lighting.area_lights)"),
-    "surface": Stream(("index",), (4,), "the ground the part rests on (render.surface)"),
     "framing": Stream(("index",), (5,), "each image's fill, offset, partial cut, lens and f-number (camera.*)"),
     "shape": Stream(("index",), (6,), "the part's shape: can size, scale, taper and bulge (object.shapes)"),
     "appearance": Stream(("index",), (7,), "the printed artwork, photo, gloss and ink roughness (render.appearance)"),
@@ -43,7 +41,11 @@ STREAMS: dict[str, Stream] = {
 def stream(name: str, seed: int, *keys: int) -> np.random.Generator:
     """The generator of stream ``name`` for run ``seed`` and the stream's ``keys`` (a sample index, an image's
     :func:`stable_int`)."""
-    s = STREAMS[name]
+    return generator(STREAMS[name], seed, *keys, name=name)
+
+
+def generator(s: Stream, seed: int, *keys: int, name: str = "") -> np.random.Generator:
+    """The generator of stream ``s`` (called ``name``) for run ``seed`` and its ``keys``."""
     if len(keys) != len(s.keys):
         raise TypeError(f"stream {name!r} takes {len(s.keys)} key(s) ({', '.join(s.keys) or 'none'}), got {len(keys)}")
     return np.random.default_rng([seed, *keys, *s.tail])

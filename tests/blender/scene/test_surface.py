@@ -11,8 +11,10 @@ from PIL import Image
 
 from deformsim.config import load_config
 from deformsim.dataset.layout import Layout, image_id
+from deformsim.dataset.manifest import rows_for
+from deformsim.dataset.rendered import Rendered
 from deformsim.hdri import list_hdris
-from deformsim.sampling import draw_surface, sample_params
+from deformsim.sampling import sample_params
 from deformsim.spec.model import load_spec
 from tests.blender.conftest import TINY_RENDER, worker_renders
 
@@ -35,12 +37,13 @@ def scenes(tmp_path_factory):
             True: load_config("quick", {**base, "render.shadow": True, "render.surface": surface})}
     p = dataclasses.replace(sample_params(0, 5, cfgs[True], load_spec(None), list_hdris(None)), pose_tilt=90.0)
     kinds = {k: load_config("quick", {**base, "render.surface": {**surface, "kinds": [k]}}) for k in ("wood", "photo")}
-    wood = dataclasses.replace(p, surface=draw_surface(0, 5, kinds["wood"]))
-    photo = dataclasses.replace(p, index=1, surface=draw_surface(0, 5, kinds["photo"]))
+    ground = {k: sample_params(0, 5, cfg, load_spec(None), list_hdris(None)).surface for k, cfg in kinds.items()}
+    wood, photo = dataclasses.replace(p, surface=ground["wood"]), dataclasses.replace(p, index=1, surface=ground["photo"])
     out = {}
     for on, cfg in cfgs.items():
         layout = Layout(root / str(on))
         out[on] = (layout, worker_renders(root / f"{on}.log", cfg, layout.root, [wood, photo] if on else [wood]))
+    out["params"] = [wood, photo]
     return out
 
 
@@ -51,11 +54,14 @@ def _read(layout: Layout, kind: str, cam: int, sample: int = 0) -> np.ndarray:
 def test_reply_names_the_scene_images(scenes):
     assert all(r["kinds"] == ["shadow", "surface"] for r in scenes[True][1]), scenes[True][1]
     assert scenes[False][1][0]["kinds"] == [] and scenes[False][1][0]["image_columns"] == [{}, {}]
-    for r, kind in zip(scenes[True][1], ("wood", "photo")):
+    layout = scenes[True][0]
+    for r, p, kind in zip(scenes[True][1], scenes["params"], ("wood", "photo")):
         for c, cols in enumerate(r["image_columns"]):
-            assert list(cols) == ["shadow", "surface", "surface_params"]
+            assert list(cols) == ["shadow", "surface"]
             assert cols["surface"] == f"images/surface/{image_id(r['done'], c)}.png"
-            assert json.loads(cols["surface_params"])["kind"] == kind
+        for row in rows_for(p, layout, Rendered.from_dict(r)):  # the drawn ground beside the scene in the manifest
+            assert row["surface"] == f"images/surface/{row['id']}.png"
+            assert json.loads(row["surface_params"])["kind"] == kind
 
 
 def test_rgba_and_variants_unchanged_by_surface(scenes):
@@ -86,7 +92,8 @@ def test_every_procedural_kind_renders_its_own_ground(tmp_path):
     cfg = load_config("quick", {**base, "render.surface": {}})
     spec, hdris = load_spec(None), list_hdris(None)
     params = [dataclasses.replace(sample_params(0, 1, cfg, spec, hdris), index=i,
-                                  surface=draw_surface(0, 1, load_config("quick", {**base, "render.surface": {"kinds": [k]}})))
+                                  surface=sample_params(0, 1, load_config("quick", {**base, "render.surface": {"kinds": [k]}}),
+                                                        spec, hdris).surface)
               for i, k in enumerate(kinds)]
     replies = worker_renders(tmp_path / "w.log", cfg, tmp_path, params)
     assert all("done" in r for r in replies), replies

@@ -29,7 +29,6 @@ import numpy as np
 from mathutils import Quaternion, Vector
 
 from deformsim.blender.feature import Feature, RenderContext
-from deformsim.config import Config
 
 SIM_SIZE = 1.2  # metres: the part's largest dimension while simulating
 FPS = 24
@@ -245,10 +244,6 @@ class Drop(Feature):
     def __init__(self, ctx: RenderContext):
         super().__init__(ctx)
         self.rest: DropResult | None = None  # how the last sample came to rest
-
-    @staticmethod
-    def on(cfg: Config) -> bool:
-        return cfg.pose.mode == "drop"
 
     def place(self, p) -> tuple[float, float, float]:
         if len(p.drop_rotation) != 4:

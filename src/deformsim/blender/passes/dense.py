@@ -25,9 +25,9 @@ import numpy as np
 import OpenEXR
 
 from deformsim.blender.feature import Feature
-from deformsim.config import Config, VisibleRegionConfig
+from deformsim.config import VisibleRegionConfig
 from deformsim.dataset import dense as maps
-from deformsim.dataset.layout import DENSE_KINDS, Layout
+from deformsim.dataset.layout import Layout
 from deformsim.sampling import SampleParams
 from deformsim.spec.model import Spec
 
@@ -224,16 +224,10 @@ class Dense(Feature):
     image's columns: the sample's largest displacement and families, the image's bounding box, displacement and
     region (:func:`deformsim.dataset.dense.map_stats`)."""
 
-    kinds = DENSE_KINDS
-
     def __init__(self, ctx):
         super().__init__(ctx)
         self.sample: dict = {}  # the sample's columns, shared by its images
         self.images: list[dict] = []  # each image's columns
-
-    @staticmethod
-    def on(cfg: Config) -> bool:
-        return cfg.render.dense
 
     def apply(self, p, target) -> None:
         ctx = self.ctx

@@ -14,7 +14,6 @@ import bpy
 from mathutils import Euler, Vector
 
 from deformsim.blender.feature import Feature, RenderContext
-from deformsim.config import Config
 from deformsim.sampling import LightParams
 
 PREFIX = "AreaLight"
@@ -74,10 +73,6 @@ class AreaLights(Feature):
     def __init__(self, ctx: RenderContext):
         super().__init__(ctx)
         make_lights(ctx.scene, ctx.cfg.lighting.area_lights.count[1])
-
-    @staticmethod
-    def on(cfg: Config) -> bool:
-        return cfg.lighting.area_lights.count[1] > 0
 
     def apply(self, p, target) -> None:
         set_lights(self.ctx.scene, p.lights, target, self.ctx.camera_scale)

@@ -24,8 +24,7 @@ import numpy as np
 from deformsim.blender.cycles import render_to_array
 from deformsim.blender.feature import Feature, RenderContext
 from deformsim.blender.scene.ground import make_plane, place, plane_shown
-from deformsim.config import Config
-from deformsim.dataset.layout import SHADOW_KIND, Layout
+from deformsim.dataset.layout import Layout
 
 CATCHER = "DeformsimShadowCatcher"
 FLOOR = 12 / 255  # shadow opacity below this is sampling noise of the catcher (measured up to ~8/255 at 16 spp)
@@ -70,17 +69,10 @@ def shadow_map(shadow_alpha: np.ndarray, part_alpha: np.ndarray, floor: float = 
 class Shadow(Feature):
     """``render.shadow``: ``images/shadow/ID.png`` per camera."""
 
-    kinds = (SHADOW_KIND,)
-    extra_pass = True
-
     def __init__(self, ctx: RenderContext):
         super().__init__(ctx)
         self.catcher = make_catcher(ctx.scene, ctx.camera_scale)
         self.alphas: list[np.ndarray] = []  # the sample's rgba alpha per camera
-
-    @staticmethod
-    def on(cfg: Config) -> bool:
-        return cfg.render.shadow
 
     def apply(self, p, target) -> None:
         place(self.catcher, self.ctx.obj, target)

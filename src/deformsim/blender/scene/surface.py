@@ -22,7 +22,6 @@ many part sizes behind the part, turned to face each side view's camera, instead
 from __future__ import annotations
 
 import colorsys
-import json
 import math
 from pathlib import Path
 
@@ -32,8 +31,7 @@ import numpy as np
 from deformsim.blender.cycles import render_to_array
 from deformsim.blender.feature import Feature, RenderContext
 from deformsim.blender.scene.ground import make_plane, place, plane_shown
-from deformsim.config import REFERENCE_SIZE, Config
-from deformsim.dataset.layout import SURFACE_KIND
+from deformsim.config import REFERENCE_SIZE
 
 SURFACE = "DeformsimSurface"
 BACKDROP = "DeformsimBackdrop"
@@ -122,22 +120,14 @@ def render_scene(scene, plane, world, target: Path, last: bool = True) -> tuple[
 
 
 class Surface(Feature):
-    """``render.surface``: ``images/surface/ID.png`` per camera, and the drawn ground in ``surface_params``."""
-
-    kinds = (SURFACE_KIND,)
-    extra_pass = True
+    """``render.surface``: ``images/surface/ID.png`` per camera."""
 
     def __init__(self, ctx: RenderContext):
         super().__init__(ctx)
         self.plane = make_surface(ctx.scene, ctx.camera_scale)
         backdrop = ctx.cfg.render.surface.backdrop
         self.wall = make_backdrop(ctx.scene, ctx.camera_scale) if backdrop is not None else None
-        self.params = ""  # the sample's surface, as its manifest column
         self.target = ctx.target
-
-    @staticmethod
-    def on(cfg: Config) -> bool:
-        return cfg.render.surface is not None
 
     def apply(self, p, target) -> None:
         if p.surface is None:
@@ -145,7 +135,6 @@ class Surface(Feature):
         set_surface(self.plane, self.ctx.obj, target, p.surface, self.ctx.camera_scale)
         if self.wall is not None:
             set_backdrop(self.wall, p.surface)
-        self.params = json.dumps(p.surface.__dict__, sort_keys=True)
         self.target = target
 
     def render_pass(self, c: int, path: Path, last: bool) -> tuple[np.ndarray, float]:
@@ -157,9 +146,6 @@ class Surface(Feature):
             return render_scene(self.ctx.scene, self.plane, self.ctx.world, path, last=last)
         finally:
             self.wall.hide_render = True
-
-    def image_columns(self, c: int) -> dict:
-        return {"surface_params": self.params}
 
 
 def _linear(rgb) -> tuple[float, float, float]:
