@@ -25,6 +25,7 @@ from deformsim.errors import UserError
 from deformsim.log import get_logger
 
 if TYPE_CHECKING:
+    from deformsim.composite.stage import Composited
     from deformsim.evaluate.benchmark import Plan
     from deformsim.evaluate.metrics_file import Evaluation
     from deformsim.learn.adapter import AdaptRecipe
@@ -116,8 +117,9 @@ class Engine:
         return bake(spec, self.config.object.spec, self.config.object.mesh, progress=self.progress, force=force)
 
     def composite(self, data: str | Path, name: str | None = None, seed: int = 0,
-                  backgrounds: str | Path | None = None) -> Path:
-        """Put every image of ``data`` on background photos (or procedural ones); the variant folder."""
+                  backgrounds: str | Path | None = None) -> Composited:
+        """Put every image of ``data`` on background photos (or procedural ones); the variant made (its folder and
+        counts)."""
         from deformsim.composite.stage import composite
 
         cfg = self.config.composite
