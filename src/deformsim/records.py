@@ -50,22 +50,28 @@ def made(model: type[R], data: dict) -> R:
     return model.model_validate({**data, "schema_version": model.VERSION}, strict=False)
 
 
-def read_record(path: str | Path, model: type[R]) -> R:
-    """The record ``model`` in the JSON file ``path``; one line naming the file when it is none."""
-    refused = f"{path} is not a deformsim {model.WHAT}"
+def load_json(path: str | Path, name: str, refused: str, missing: str) -> tuple[bytes, object]:
+    """The bytes of the JSON file ``path`` and what they parse to; else one line: ``NAME: no such file (MISSING)``,
+    ``NAME cannot be read: ...`` or ``REFUSED: why`` (larger than :data:`MAX_FILE`, not JSON, nested too deeply)."""
     try:
         with open(path, "rb") as f:
             raw = f.read(MAX_FILE + 1)
     except FileNotFoundError:
-        raise UserError(f"{path}: no such file (a {model.WHAT} was expected)") from None
+        raise UserError(f"{name}: no such file ({missing})") from None
     except OSError as exc:
-        raise UserError(f"{path} cannot be read: {exc.strerror}") from None
+        raise UserError(f"{name} cannot be read: {exc.strerror}") from None
     if len(raw) > MAX_FILE:
         raise UserError(f"{refused}: larger than {MAX_FILE >> 20} MiB")
     try:
-        data = json.loads(raw)
+        return raw, json.loads(raw)
     except (ValueError, RecursionError) as exc:
         raise UserError(f"{refused}: {'nested too deeply' if isinstance(exc, RecursionError) else 'not JSON'}") from None
+
+
+def read_record(path: str | Path, model: type[R]) -> R:
+    """The record ``model`` in the JSON file ``path``; one line naming the file when it is none."""
+    refused = f"{path} is not a deformsim {model.WHAT}"
+    raw, data = load_json(path, str(path), refused, f"a {model.WHAT} was expected")
     if not isinstance(data, dict):
         raise UserError(f"{refused}: it holds {type(data).__name__} {shown(data, 40)}, not a JSON object")
     version = data.get("schema_version", 1)

@@ -33,7 +33,7 @@ import numpy as np
 
 from deformsim.atomic import write_bytes, write_json
 from deformsim.errors import UserError
-from deformsim.evaluate.fewshot_file import CURVES, MAX_FILE, CurveRow, FewshotFile
+from deformsim.evaluate.fewshot_file import CURVES, CurveRow, FewshotFile
 from deformsim.log import get_logger
 
 if TYPE_CHECKING:
@@ -258,27 +258,13 @@ def _reset_head(net, seed: int) -> None:
 def read_results(path: str | Path) -> dict:
     """A ``fewshot.json`` checked against :class:`FewshotFile` (as the report shows it); one line naming the file and
     its first bad value otherwise."""
-    import json
-
     from pydantic import ValidationError
 
+    from deformsim.records import load_json
     from deformsim.schema import first_error, shown
 
     refused = f"--fewshot {path} is not a deformsim few-shot result (bench fewshot's fewshot.json)"
-    try:
-        with open(path, "rb") as f:
-            raw = f.read(MAX_FILE + 1)
-    except FileNotFoundError:
-        raise UserError(f"--fewshot {path}: no such file (run deformsim bench fewshot)") from None
-    except OSError as exc:
-        raise UserError(f"--fewshot {path} cannot be read: {exc.strerror}") from None
-    if len(raw) > MAX_FILE:
-        raise UserError(f"{refused}: larger than {MAX_FILE >> 20} MiB")
-    try:
-        results = json.loads(raw)
-    except (ValueError, RecursionError) as exc:
-        why = "nested too deeply" if isinstance(exc, RecursionError) else "not JSON"
-        raise UserError(f"{refused}: {why}") from None
+    raw, results = load_json(path, f"--fewshot {path}", refused, "run deformsim bench fewshot")
     try:
         FewshotFile.model_validate_json(raw)
     except ValidationError as exc:

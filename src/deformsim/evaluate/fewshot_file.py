@@ -10,7 +10,6 @@ from pydantic import ConfigDict, Field
 from deformsim.schema import StrictModel
 
 CURVES = ("synthetic", "unadapted", "imagenet")
-MAX_FILE = 256 << 20  # bytes of a fewshot.json (a million runs)
 Share = Annotated[float, Field(ge=0, le=1)]
 Count = Annotated[int, Field(ge=0, le=10**9)]
 
