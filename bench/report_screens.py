@@ -33,6 +33,8 @@ from PIL import Image
 
 from deformsim.config import TrainConfig
 from deformsim.evaluate.metrics import compute_metrics
+from deformsim.evaluate.metrics_file import MetricsFile
+from deformsim.records import made
 from deformsim.report.html import write_report
 from deformsim.version import __version__
 
@@ -106,7 +108,7 @@ def tiny_report(folder: Path) -> Path:
     metrics = {"created": "2026-01-01T00:00:00+00:00", "data_root": str(data), "real_dir": str(photos),
                "settings": TrainConfig(weights="offline", epochs=5).model_dump(mode="json"), "version": __version__,
                "missing_variants": [], "variants": variants, "plots": {}, "seconds": 12.0}
-    return write_report(metrics, folder / "report").parent
+    return write_report(made(MetricsFile, metrics), folder / "report").parent
 
 
 def problems(m: dict) -> list[str]:

@@ -6,7 +6,7 @@
     engine.generate("out/data")
     engine.composite("out/data", backgrounds="photos/")
     model = engine.train("out/data", "out/model", variant="backgrounds").model_path
-    print(engine.evaluate(model, real="real_photos/")["metrics"]["accuracy"])
+    print(engine.evaluate(model, real="real_photos/").metrics.accuracy)
 
 Every method checks its inputs before any work and raises :class:`deformsim.errors.UserError` with one
 line naming the problem. Each CLI command parses its options into an Engine, calls one of its methods and
@@ -25,7 +25,9 @@ from deformsim.errors import UserError
 from deformsim.log import get_logger
 
 if TYPE_CHECKING:
+    from deformsim.composite.stage import Composited
     from deformsim.evaluate.benchmark import Plan
+    from deformsim.evaluate.metrics_file import Evaluation
     from deformsim.learn.adapter import AdaptRecipe
     from deformsim.learn.finetune import Recipe
     from deformsim.spec.model import Spec
@@ -115,8 +117,9 @@ class Engine:
         return bake(spec, self.config.object.spec, self.config.object.mesh, progress=self.progress, force=force)
 
     def composite(self, data: str | Path, name: str | None = None, seed: int = 0,
-                  backgrounds: str | Path | None = None) -> Path:
-        """Put every image of ``data`` on background photos (or procedural ones); the variant folder."""
+                  backgrounds: str | Path | None = None) -> Composited:
+        """Put every image of ``data`` on background photos (or procedural ones); the variant made (its folder and
+        counts)."""
         from deformsim.composite.stage import composite
 
         cfg = self.config.composite
@@ -230,10 +233,10 @@ class Engine:
         return to_onnx(model, onnx)
 
     def evaluate(self, model: str | Path, data: str | Path | None = None, variant: str | None = None,
-                 real: str | Path | None = None, threshold: float | None = None, out: str | Path | None = None) -> dict:
+                 real: str | Path | None = None, threshold: float | None = None,
+                 out: str | Path | None = None) -> Evaluation:
         """Metrics and predictions of a trained model on a dataset variant or on real photos (also written to the
         JSON file ``out``)."""
-        from deformsim.atomic import write_json
         from deformsim.evaluate.experiments import evaluate_model
         from deformsim.outputs import check_file_target
 
@@ -244,7 +247,7 @@ class Engine:
         self.notify(f"testing {model} on {what} (a progress bar follows on a terminal)")
         result = evaluate_model(model, data, variant, real, threshold)
         if out is not None:
-            write_json(out, result)
+            result.write(out)
         return result
 
     def report(self, data: str | Path, out: str | Path | None = None, real: str | Path | None = None,

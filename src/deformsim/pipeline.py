@@ -72,13 +72,14 @@ ADAPTED_MODEL = "model-adapted"  # OUT's model adapted to --unlabelled photos
 def _report_split(seconds: float, metrics: Path) -> dict[str, float]:
     """The report stage's ``seconds`` as the time its models trained, its dense-label heads took (when it has them)
     and the rest (testing, plots, the page), by the times in its ``metrics`` file."""
+    from deformsim.evaluate.metrics_file import read_metrics
+
     try:
-        recorded = json.loads(metrics.read_text())
-        parts = [e.get(p) or {} for e in recorded["variants"].values() for p in ("split", "real")]
-        trained = sum(part["train_seconds"] for part in parts if "train_seconds" in part)
-        dense = float((recorded.get("dense") or {}).get("seconds") or 0.0)
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        recorded = read_metrics(metrics)
+    except UserError:
         return {"report": seconds}
+    trained = sum(test.train_seconds for _, _, test in recorded.results())
+    dense = recorded.dense.seconds if recorded.dense is not None else 0.0
     out = {"report: training": trained}
     if dense:
         out["report: dense-label heads"] = dense

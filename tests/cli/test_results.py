@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from deformsim.api import Engine, Prediction
 from deformsim.cli.app import app
-from deformsim.evaluate.metrics import compute_metrics
 from deformsim.pipeline import RunResult
+from tests.report.made import experiment, metrics_file
 
 
 def invoke(*args):
@@ -21,15 +20,14 @@ def invoke(*args):
 def write_report(folder):
     """A report folder whose black model got 7 of 10 real photos right and whose procedural one predicted none
     deformed (precision undefined)."""
-    y = np.array([0] * 6 + [1] * 4)
-    good = compute_metrics(y, np.array([0.1] * 5 + [0.9] + [0.9] * 2 + [0.1] * 2))
-    none = compute_metrics(y, np.full(10, 0.1))
-    test = {"n": 10, "n_deformed": 4}
+    y = [0] * 6 + [1] * 4
+    black = experiment(y, [0.1] * 5 + [0.9] + [0.9] * 2 + [0.1] * 2, "models/black_full/model.pt")
+    procedural = experiment(y, [0.1] * 10, "models/procedural_full/model.pt")
     folder.mkdir(parents=True)
-    (folder / "metrics.json").write_text(json.dumps({"variants": {
-        "black": {"real": {"metrics": good, "test": test}, "split": {"skipped": "too few samples"}},
-        "procedural": {"real": {"metrics": none, "test": test}},
-    }}))
+    (folder / "metrics.json").write_text(json.dumps(metrics_file({
+        "black": {"n_images": 10, "real": black, "split": {"skipped": "too few samples"}},
+        "procedural": {"n_images": 10, "real": procedural},
+    })))
     (folder / "report.html").write_text("<html></html>")
     return folder / "report.html"
 

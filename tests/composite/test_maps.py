@@ -22,7 +22,7 @@ def dense(tmp_path):
 
 
 def _run(root, name, **cfg):
-    variant = composite(root, CompositeConfig(matte="alpha", workers=1, **cfg), name, seed=4, progress=False)
+    variant = composite(root, CompositeConfig(matte="alpha", workers=1, **cfg), name, seed=4, progress=False).folder
     return variant, pd.read_parquet(variant / "manifest.parquet").set_index("id")
 
 

@@ -35,7 +35,7 @@ def test_chroma_matches_exact_alpha_on_renders(tiny_dataset):
 
 
 def test_composites_have_no_green(dataset):
-    variant = composite(dataset, CFG, None, seed=1, progress=False)
+    variant = composite(dataset, CFG, None, seed=1, progress=False).folder
     df = pd.read_parquet(variant / "manifest.parquet")
     assert len(df) == 8 and df["matte_iou"].min() >= 0.98
     for row in df.itertuples():

@@ -30,8 +30,8 @@ def _images(variant):
 def test_shadow_darkens_background_next_to_part_only(dataset, tmp_path):
     shaded = _with_shadows(dataset, tmp_path / "shaded")
     cfg = CompositeConfig(matte="alpha", workers=1)
-    plain = _images(composite(dataset, cfg, "a", seed=3, progress=False))
-    dark = _images(composite(shaded, cfg, "a", seed=3, progress=False))
+    plain = _images(composite(dataset, cfg, "a", seed=3, progress=False).folder)
+    dark = _images(composite(shaded, cfg, "a", seed=3, progress=False).folder)
     manifest = pd.read_parquet(shaded / "variants" / "a" / "manifest.parquet")
     assert (manifest["shadow_strength"] == 1.0).all()
     for name, img in dark.items():
@@ -48,8 +48,8 @@ def test_shadow_darkens_background_next_to_part_only(dataset, tmp_path):
 def test_shadow_follows_framing_and_flip_and_strength_is_drawn(dataset, tmp_path):
     shaded = _with_shadows(dataset, tmp_path / "shaded")
     cfg = CompositeConfig(matte="alpha", workers=1, object_fill=(0.5, 0.7), flip_part=1.0, shadow_strength=(0.3, 0.9))
-    plain = _images(composite(dataset, cfg, "a", seed=3, progress=False))
-    dark = _images(composite(shaded, cfg, "a", seed=3, progress=False))
+    plain = _images(composite(dataset, cfg, "a", seed=3, progress=False).folder)
+    dark = _images(composite(shaded, cfg, "a", seed=3, progress=False).folder)
     a = pd.read_parquet(dataset / "variants" / "a" / "manifest.parquet")
     b = pd.read_parquet(shaded / "variants" / "a" / "manifest.parquet")
     assert b["shadow_strength"].between(0.3, 0.9).all() and b["shadow_strength"].nunique() > 1
@@ -64,7 +64,7 @@ def test_chroma_matte_ignores_shadows(dataset, tmp_path):
     shaded = _with_shadows(dataset, tmp_path / "shaded")
     cfg = CompositeConfig(workers=1)
     assert cfg.matte == "chroma"
-    one = _images(composite(dataset, cfg, "c", seed=1, progress=False))
-    two = _images(composite(shaded, cfg, "c", seed=1, progress=False))
+    one = _images(composite(dataset, cfg, "c", seed=1, progress=False).folder)
+    two = _images(composite(shaded, cfg, "c", seed=1, progress=False).folder)
     assert one.keys() == two.keys() and all(np.array_equal(one[k], two[k]) for k in one)
     assert "shadow_strength" not in pd.read_parquet(shaded / "variants" / "c" / "manifest.parquet").columns

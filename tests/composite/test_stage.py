@@ -41,9 +41,12 @@ def _snapshot(folder):
     return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
-def test_procedural_variant_is_readable(dataset):
-    variant = composite(dataset, CompositeConfig(), None, seed=0, progress=False)
+def test_procedural_variant_is_readable_and_counted(dataset):
+    made = composite(dataset, CompositeConfig(), None, seed=0, progress=False)
+    variant = made.folder
     assert variant == dataset / "variants" / "procedural"
+    iou = pd.read_parquet(variant / "manifest.parquet")["matte_iou"].dropna().tolist()
+    assert (made.images, made.surfaces, made.matte_iou) == (8, 0, iou) and len(iou) == 8
     assert "procedural" in list_variants(dataset)
     table = variant_table(dataset, "procedural")
     assert len(table) == 8 and set(table["y"]) == {0, 1}
@@ -53,9 +56,9 @@ def test_procedural_variant_is_readable(dataset):
 
 
 def test_same_seed_same_composites_any_workers(dataset):
-    one = composite(dataset, CompositeConfig(workers=1), "a", seed=5, progress=False)
-    two = composite(dataset, CompositeConfig(workers=2), "b", seed=5, progress=False)
-    other = composite(dataset, CompositeConfig(workers=1), "c", seed=6, progress=False)
+    one = composite(dataset, CompositeConfig(workers=1), "a", seed=5, progress=False).folder
+    two = composite(dataset, CompositeConfig(workers=2), "b", seed=5, progress=False).folder
+    other = composite(dataset, CompositeConfig(workers=1), "c", seed=6, progress=False).folder
     a, b, c = (pd.read_parquet(v / "manifest.parquet") for v in (one, two, other))
     cols = ["id", "background", "bg_x", "bg_y", "bg_scale", "bg_flip"]
     pd.testing.assert_frame_equal(a[cols], b[cols])
@@ -66,7 +69,7 @@ def test_same_seed_same_composites_any_workers(dataset):
 def test_photo_backgrounds_recorded(dataset, tmp_path, backgrounds_dir):
     folder = _photos(tmp_path, backgrounds_dir)
     cfg = CompositeConfig(backgrounds=folder, scale_jitter=(1.0, 1.5))
-    variant = composite(dataset, cfg, None, seed=2, progress=False)
+    variant = composite(dataset, cfg, None, seed=2, progress=False).folder
     assert variant.name == "backgrounds"
     df = pd.read_parquet(variant / "manifest.parquet")
     names = {str(p.relative_to(folder)) for p in folder.rglob("*.jpg")}
@@ -85,7 +88,7 @@ def test_corrupt_backgrounds_skipped_and_named(dataset, tmp_path):
     (folder / "truncated.jpg").write_bytes(jpg.tobytes()[: len(jpg) // 3])
     (folder / "notes.txt").write_text("ignored")
     with pytest.warns(BackgroundWarning) as record:
-        variant = composite(dataset, CompositeConfig(backgrounds=folder), "bad", seed=0, progress=False)
+        variant = composite(dataset, CompositeConfig(backgrounds=folder), "bad", seed=0, progress=False).folder
     messages = " ".join(str(w.message) for w in record)
     assert "garbage.jpg" in messages and "truncated.jpg" in messages and "notes.txt" not in messages
     assert set(pd.read_parquet(variant / "manifest.parquet")["background"]) == {"good.png"}
@@ -93,7 +96,7 @@ def test_corrupt_backgrounds_skipped_and_named(dataset, tmp_path):
 
 @pytest.mark.parametrize("make", ["missing", "empty", "only_bad"])
 def test_bad_folder_fails_before_work(dataset, tmp_path, make):
-    existing = composite(dataset, CompositeConfig(), "backgrounds", seed=0, progress=False)
+    existing = composite(dataset, CompositeConfig(), "backgrounds", seed=0, progress=False).folder
     before = _snapshot(existing)
     folder = tmp_path / "bg"
     if make != "missing":
@@ -108,7 +111,7 @@ def test_bad_folder_fails_before_work(dataset, tmp_path, make):
 
 
 def test_failed_run_keeps_existing_variant(dataset):
-    existing = composite(dataset, CompositeConfig(), "procedural", seed=0, progress=False)
+    existing = composite(dataset, CompositeConfig(), "procedural", seed=0, progress=False).folder
     before = _snapshot(existing)
     victim = sorted((dataset / "images" / "green").glob("*.png"))[-1]
     victim.write_bytes(b"broken png")
@@ -135,6 +138,8 @@ def test_cli(dataset, tmp_path, backgrounds_dir):
                               "--workers", "1", "--no-progress"])
     assert res.exit_code == 0, res.output
     assert "8 composites" in res.output and (dataset / "variants" / "backgrounds" / "manifest.parquet").is_file()
+    iou = pd.read_parquet(dataset / "variants" / "backgrounds" / "manifest.parquet")["matte_iou"]
+    assert f"matte IoU vs exact alpha: mean {iou.mean():.4f}, min {iou.min():.4f}" in " ".join(res.output.split())
     res = runner.invoke(app, ["composite", str(dataset), "--matte", "alpha", "--name", "exact", "--no-progress"])
     assert res.exit_code == 0, res.output
     assert pd.read_parquet(dataset / "variants" / "exact" / "manifest.parquet")["matte"].eq("alpha").all()
@@ -164,13 +169,13 @@ def test_framing_and_effects_are_seeded_recorded_and_fill_the_frame(dataset):
     from deformsim.config import CameraEffects
 
     cfg = CompositeConfig(matte="alpha", object_fill=(0.8, 0.8), fill_offset=0.0, effects=CameraEffects(), workers=1)
-    one = composite(dataset, cfg, "framed", seed=2, progress=False)
-    two = composite(dataset, cfg.model_copy(update={"workers": 2}), "framed2", seed=2, progress=False)
+    one = composite(dataset, cfg, "framed", seed=2, progress=False).folder
+    two = composite(dataset, cfg.model_copy(update={"workers": 2}), "framed2", seed=2, progress=False).folder
     assert _snapshot(one / "images") == _snapshot(two / "images")
     df = pd.read_parquet(one / "manifest.parquet")
     assert {"frame_fill", "frame_side", "fx_exposure", "fx_noise", "fx_jpeg_quality"} <= set(df.columns)
     plain = composite(dataset, CompositeConfig(matte="alpha", object_fill=(0.8, 0.8), fill_offset=0.0), "f3",
-                      seed=2, progress=False)
+                      seed=2, progress=False).folder
     rgba = cv2.imread(str(dataset / "images" / "rgba" / "000000_c0.png"), cv2.IMREAD_UNCHANGED)
     before = object_box(rgba[..., 3] / 255.0)
     size = rgba.shape[0]
@@ -262,11 +267,11 @@ def test_paired_twins_share_each_images_composite_draws(dataset, tmp_path, balan
         return df.loc[ids, cols].reset_index(drop=True), df.loc[[i.replace("000001", "000000") for i in ids],
                                                                    cols].reset_index(drop=True)
 
-    intact, damaged = twins(composite(dataset, cfg, "own", seed=4, progress=False))
+    intact, damaged = twins(composite(dataset, cfg, "own", seed=4, progress=False).folder)
     assert not intact.equals(damaged)
     manifest = dataset / "manifest.parquet"
     df = pd.read_parquet(manifest)
     assert sorted(df.groupby("sample")["y"].first()) == [0, 1]  # sample 0 and its intact twin, sample 1
     df.assign(pair=0).to_parquet(manifest, index=False)
-    intact, damaged = twins(composite(dataset, cfg, "paired", seed=4, progress=False))
+    intact, damaged = twins(composite(dataset, cfg, "paired", seed=4, progress=False).folder)
     pd.testing.assert_frame_equal(intact, damaged)

@@ -28,8 +28,8 @@ def _with_surfaces(src, dst):
 
 def test_surface_share_shows_the_scene_whole_and_leaves_the_rest(dataset, tmp_path):
     scenes = _with_surfaces(dataset, tmp_path / "scenes")
-    plain = composite(scenes, CompositeConfig(workers=1), "p", seed=2, progress=False)
-    mixed = composite(scenes, CompositeConfig(workers=1, surface=0.5), "m", seed=2, progress=False)
+    plain = composite(scenes, CompositeConfig(workers=1), "p", seed=2, progress=False).folder
+    mixed = composite(scenes, CompositeConfig(workers=1, surface=0.5), "m", seed=2, progress=False).folder
     m = pd.read_parquet(mixed / "manifest.parquet")
     shown = m["background"] == "surface"
     assert 0 < shown.sum() < len(m)  # a share, drawn per image
@@ -45,7 +45,7 @@ def test_surface_share_shows_the_scene_whole_and_leaves_the_rest(dataset, tmp_pa
 def test_surface_scenes_are_framed_around_the_part(dataset, tmp_path):
     scenes = _with_surfaces(dataset, tmp_path / "scenes")
     v = composite(scenes, CompositeConfig(workers=1, surface=1.0, object_fill=(0.8, 0.8), fill_offset=0.0),
-                  "f", seed=0, progress=False)
+                  "f", seed=0, progress=False).folder
     m = pd.read_parquet(v / "manifest.parquet")
     assert (m["background"] == "surface").all() and (m["frame_fill"] == 0.8).all()
     for row in m.itertuples():

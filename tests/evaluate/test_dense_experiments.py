@@ -13,6 +13,8 @@ from deformsim.dataset.layout import Layout
 from deformsim.dataset.variants import variant_table
 from deformsim.errors import UserError
 from deformsim.evaluate.dense_experiments import plan
+from deformsim.evaluate.metrics_file import read_metrics
+from deformsim.learn.train_file import read_train
 from tests.learn.conftest import learn_cache  # noqa: F401
 from tests.learn.dense_blobs import make_dense_dataset
 
@@ -51,36 +53,36 @@ def report(data, real_dir, tmp_path_factory):
 
 def test_dense_heads_use_the_label_split(report):
     metrics, out, _ = report
-    dense = metrics["dense"]
-    assert json.loads((out / "metrics.json").read_text())["dense"] == json.loads(json.dumps(dense))
-    assert dense["variant"] == "black" and list(dense["heads"]) == ["severity", "family", "localise"]
+    dense = metrics.dense
+    assert read_metrics(out).dense == dense
+    assert dense.variant == "black" and list(dense.heads) == ["severity", "family", "localise"]
     held_out = json.loads((out / "models" / "black_split" / "split.json").read_text())["test"]
-    assert dense["n_test"] == len(held_out) == metrics["variants"]["black"]["split"]["test"]["n"]
-    for target, head in dense["heads"].items():
-        saved = json.loads((out / head["model"]).parent.joinpath("train.json").read_text())
-        assert saved["config"]["target"] == target and saved["n_train"] + saved["n_val"] == dense["n_train"]
-    sev = dense["heads"]["severity"]["metrics"]
-    assert sev["n"] == len(held_out) and sev["mae_mm"] >= 0 and (out / dense["heads"]["severity"]["plot"]).is_file()
-    assert set(dense["heads"]["family"]["metrics"]["families"]) == {"dent", "cr<b>ease"}
-    assert 0 <= dense["heads"]["localise"]["metrics"]["iou"] <= 1
-    assert dense["seconds"] < metrics["seconds"]
+    assert dense.n_test == len(held_out) == metrics.variants["black"].split.test.n
+    for target, head in dense.heads.items():
+        saved = read_train((out / head.model).parent)
+        assert saved.config["target"] == target and saved.n_train + saved.n_val == dense.n_train
+    sev = dense.heads["severity"].metrics
+    assert sev.n == len(held_out) and sev.mae_mm >= 0 and (out / dense.heads["severity"].plot).is_file()
+    assert set(dense.heads["family"].metrics.families) == {"dent", "cr<b>ease"}
+    assert 0 <= dense.heads["localise"].metrics.iou <= 1
+    assert dense.seconds < metrics.seconds
 
 
 def test_real_photos_get_side_by_side_heatmaps(report, real_dir):
     metrics, out, _ = report
-    maps = metrics["dense"]["heads"]["localise"]["real_heatmaps"]
+    maps = metrics.dense.heads["localise"].real_heatmaps
     assert len(maps) == 4
     for h in maps:
-        with Image.open(out / h["image"]) as im, Image.open(h["path"]) as photo:
+        with Image.open(out / h.image) as im, Image.open(h.path) as photo:
             assert im.size == (2 * photo.width + 6, photo.height)
-        assert 0 <= h["region_fraction"] <= 1
+        assert 0 <= h.region_fraction <= 1
 
 
 def test_report_section_is_escaped_and_self_contained(report):
     metrics, _, html = report
     assert "Dense labels: severity, deformation families, localisation" in html
     assert "cr&lt;b&gt;ease" in html and "cr<b>ease" not in html
-    assert f"{metrics['dense']['heads']['severity']['metrics']['mae_mm']:.2f} mm" in html
+    assert f"{metrics.dense.heads['severity'].metrics.mae_mm:.2f} mm" in html
     srcs = re.findall(r"""src\s*=\s*["']?([^"'\s>]+)""", html)  # the page embeds every picture it shows
     links = re.findall(r"""href\s*=\s*["']?([^"'\s>]+)""", html)  # and links only to the full-size photos
     assert srcs and all(r.startswith("data:") for r in srcs) and all(r.startswith(("file:", "#")) for r in links)

@@ -12,6 +12,8 @@ from typer.testing import CliRunner
 from deformsim.config import TrainConfig
 from deformsim.dataset.layout import DENSE_KINDS, RENDER_KINDS, Layout, image_id
 from deformsim.evaluate.experiments import review_order
+from deformsim.evaluate.metrics_file import Counts, Evaluation, Prediction, read_metrics
+from deformsim.records import read_record
 
 pytestmark = [pytest.mark.torch, pytest.mark.blender]
 
@@ -64,38 +66,38 @@ def experiments(four_samples, real_dir, tmp_path_factory):
 
 def test_table2_experiments(experiments, four_samples):
     metrics, out = experiments
-    assert json.loads((out / "metrics.json").read_text()) == json.loads(json.dumps(metrics))
-    assert metrics["missing_variants"] == ["backgrounds"]
-    black = metrics["variants"]["black"]
-    split, real = black["split"], black["real"]
+    assert read_metrics(out) == metrics
+    assert metrics.missing_variants == ["backgrounds"]
+    black = metrics.variants["black"]
+    split, real = black.split, black.real
     # split: one whole intact and one whole deformed scene held out, all 4 views each
-    assert split["test"] == {"n": 8, "n_deformed": 4, "n_samples": 2}
-    assert split["train"] == {"n": 8, "n_deformed": 4, "n_samples": 2}
+    assert split.test == Counts(n=8, n_deformed=4, n_samples=2)
+    assert split.train == Counts(n=8, n_deformed=4, n_samples=2)
     saved = json.loads((out / "models" / "black_split" / "split.json").read_text())
     sample = lambda ids: {i.split("_")[0] for i in ids}  # noqa: E731
     assert sample(saved["train"]).isdisjoint(sample(saved["test"]))
     # sim-to-real: trained on all 16 synthetic images, tested on the 8 'real' ones
-    assert real["train"]["n"] == 16 and real["test"]["n"] == 8
-    assert (out / real["model"]).exists() and (out / split["model"]).exists()
+    assert real.train.n == 16 and real.test.n == 8
+    assert (out / real.model).exists() and (out / split.model).exists()
     for part in (split, real):
-        m = part["metrics"]
-        assert sum(map(sum, m["confusion"]["matrix"])) == m["n"] == len(part["predictions"])
-        assert all(0 <= p["prob"] <= 1 for p in part["predictions"])
-        right = sum((p["prob"] >= 0.5) == bool(p["y"]) for p in part["predictions"])
-        assert m["accuracy"] == pytest.approx(right / m["n"])
-        assert [h["epoch"] for h in part["history"]] == [1] and "none" in part["weights"]
-    assert black["summary"]["real"]["accuracy"] == real["metrics"]["accuracy"]
+        m = part.metrics
+        assert sum(map(sum, m.confusion.matrix)) == m.n == len(part.predictions)
+        assert all(0 <= p.prob <= 1 for p in part.predictions)
+        right = sum((p.prob >= 0.5) == bool(p.y) for p in part.predictions)
+        assert m.accuracy == pytest.approx(right / m.n)
+        assert [h.epoch for h in part.history] == [1] and "none" in part.weights
+    assert black.summary["real"].accuracy == real.metrics.accuracy
     # Grad-CAM of the real-test model: every photo (8 < GRADCAM_MAX), misclassified first, one PNG each
-    assert "gradcam" not in split
-    order = [real["predictions"][i] for i in review_order(real["predictions"], 0.5)]
-    assert [{k: c[k] for k in ("path", "y", "prob")} for c in real["gradcam"]] == order
-    for c in real["gradcam"]:
-        assert c["image"].startswith("gradcam/black/")
-        with Image.open(out / c["image"]) as im, Image.open(c["path"]) as photo:
+    assert split.gradcam is None and "gradcam" not in split.model_fields_set
+    order = [real.predictions[i] for i in review_order(real.predictions, 0.5)]
+    assert [Prediction(path=c.path, y=c.y, prob=c.prob) for c in real.gradcam] == order
+    for c in real.gradcam:
+        assert c.image.startswith("gradcam/black/")
+        with Image.open(out / c.image) as im, Image.open(c.path) as photo:
             assert im.format == "PNG" and im.size == photo.size  # 64 px photos: not enlarged
-    for name in [metrics["plots"]["pca_pixels"], *metrics["plots"]["pca_features"].values()]:
+    for name in [metrics.plots.pca_pixels, *metrics.plots.pca_features.values()]:
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert list(metrics["plots"]["pca_features"]) == ["black"]
+    assert list(metrics.plots.pca_features) == ["black"]
 
 
 def test_report_from_experiments(experiments):
@@ -103,11 +105,11 @@ def test_report_from_experiments(experiments):
 
     metrics, out = experiments
     html = write_report(metrics, out).read_text()
-    acc = metrics["variants"]["black"]["real"]["metrics"]["accuracy"]
+    acc = metrics.variants["black"].real.metrics.accuracy
     assert f"{100 * acc:.1f}%" in html
     assert html.count("data:image/png;base64,") >= 4  # pixel PCA, feature PCA, training curves, reliability
     assert "Calibration on the real photographs" in html
-    assert html.count('class="thumb cam ') == len(metrics["variants"]["black"]["real"]["gradcam"])
+    assert html.count('class="thumb cam ') == len(metrics.variants["black"].real.gradcam)
     srcs = re.findall(r"""src\s*=\s*["']?([^"'\s>]+)""", html)  # the page embeds every picture it shows
     links = re.findall(r"""href\s*=\s*["']?([^"'\s>]+)""", html)  # and links only to the full-size photos
     assert srcs and all(r.startswith("data:") for r in srcs) and all(r.startswith(("file:", "#")) for r in links)
@@ -125,11 +127,11 @@ def test_cli_evaluate_and_report(experiments, four_samples, real_dir, tmp_path):
     res = runner.invoke(app, ["evaluate", str(out / "models" / "black_split"), "--data", str(four_samples),
                               "--variant", "black", "--out", str(tmp_path / "m.json")])
     assert res.exit_code == 0, res.output
-    saved = json.loads((tmp_path / "m.json").read_text())
-    assert saved["held_out"] and saved["n_images"] == 8
-    assert saved["metrics"] == metrics["variants"]["black"]["split"]["metrics"]
+    saved = read_record(tmp_path / "m.json", Evaluation)
+    assert saved.held_out and saved.n_images == 8
+    assert saved.metrics == metrics.variants["black"].split.metrics
     res = runner.invoke(app, ["evaluate", str(out / "models" / "black_full"), "--real", str(real_dir)])
-    assert res.exit_code == 0 and f"{100 * metrics['variants']['black']['real']['metrics']['accuracy']:.1f}%" in res.output
+    assert res.exit_code == 0 and f"{100 * metrics.variants['black'].real.metrics.accuracy:.1f}%" in res.output
 
     res = runner.invoke(app, ["evaluate", str(out / "models" / "black_full"), "--data", str(four_samples)])
     assert res.exit_code == 2 and "which variant" in res.output
@@ -142,6 +144,6 @@ def test_cli_evaluate_and_report(experiments, four_samples, real_dir, tmp_path):
                               "--variants", "black", "--epochs", "1", "--weights", "none", "--no-progress"])
     assert res.exit_code == 0, res.output
     assert (tmp_path / "rep" / "report.html").is_file() and "report.html" in res.output
-    rep = json.loads((tmp_path / "rep" / "metrics.json").read_text())
-    assert list(rep["variants"]) == ["black"] and "real" not in rep["variants"]["black"]
-    assert rep["settings"]["epochs"] == 1
+    rep = read_metrics(tmp_path / "rep")
+    assert list(rep.variants) == ["black"] and rep.variants["black"].real is None
+    assert rep.settings["epochs"] == 1

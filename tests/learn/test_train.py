@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 from pathlib import Path
@@ -18,6 +19,7 @@ from deformsim.learn import features as F
 from deformsim.learn.models import build
 from deformsim.learn.predict import load
 from deformsim.learn.train import fit
+from deformsim.learn.train_file import read_train
 
 pytestmark = pytest.mark.torch
 
@@ -59,6 +61,32 @@ def test_learns_easy_task_on_held_out_split(trained, blobs):
     assert not set(predictor.split["val"]) & set(predictor.split["train"])
     acc = ((predictor.predict_proba(list(val["path"])) >= 0.5) == val["y"].to_numpy()).mean()
     assert acc == pytest.approx(result.history[-1]["val_acc"], abs=1 / 16)
+
+
+def test_train_json_is_what_fit_returns_with_a_version_and_reads_back(trained):
+    result, out = trained
+    written = json.loads((out / "train.json").read_text())
+    assert written["schema_version"] == 1 and set(written) == {  # the keys version 0.2.0 wrote, and the version
+        "weights", "seconds", "history", "n_train", "n_val", "adapted", "ensemble", "held_out", "config", "schema_version"}
+    back = read_train(out)
+    assert back == result.record and back.dump() == written
+    assert back.history[-1].scores() == ("acc", result.history[-1]["acc"], result.history[-1]["val_acc"])
+    assert back.held_out.ids == written["held_out"]["ids"] and back.config == CFG.model_dump(mode="json")
+
+
+def test_an_older_train_json_reads_and_a_newer_or_foreign_one_is_refused_in_one_line(trained, tmp_path):
+    _, out = trained
+    old = {k: v for k, v in json.loads((out / "train.json").read_text()).items() if k != "schema_version"}
+    path = tmp_path / "train.json"
+    path.write_text(json.dumps(old))
+    assert read_train(tmp_path).schema_version == 1
+    for content, said in (({**old, "schema_version": 3}, f"{path} has schema_version 3, newer than this deformsim reads"),
+                          ({**old, "n_val": "4"}, f"{path} is not a deformsim training record (train.json): n_val: "
+                                                  "Input should be a valid integer (got 4)")):
+        path.write_text(json.dumps(content))
+        with pytest.raises(UserError) as err:
+            read_train(path)
+        assert str(err.value).startswith(said) and "\n" not in str(err.value)
 
 
 def test_only_last_conv_and_head_change(trained):

@@ -8,6 +8,7 @@ from deformsim.config import TrainConfig
 from deformsim.pipeline import _report_split
 from deformsim.report.headline import headline_model, link_model
 from deformsim.report.stage import present_variants
+from tests.report.made import experiment, metrics_file
 
 
 def report(folder, accuracies: dict[str, dict[str, float]]):
@@ -19,9 +20,10 @@ def report(folder, accuracies: dict[str, dict[str, float]]):
             model = folder / "models" / f"{v}_{part}"
             model.mkdir(parents=True)
             (model / "model.pt").write_bytes(f"{v} {part}".encode())
-            variants[v][part] = {"metrics": {"accuracy": acc}, "model": f"models/{v}_{part}/model.pt",
-                                 "train_seconds": 2.5}
-    (folder / "metrics.json").write_text(json.dumps({"variants": variants}))
+            test = experiment([0, 1], [0.2, 0.8], f"models/{v}_{part}/model.pt", train_seconds=2.5)
+            test["metrics"]["accuracy"] = acc
+            variants[v][part] = test
+    (folder / "metrics.json").write_text(json.dumps(metrics_file({v: {"n_images": 2, **e} for v, e in variants.items()})))
     return folder
 
 
@@ -48,7 +50,7 @@ def test_the_report_stage_time_is_split_into_training_and_the_rest(tmp_path):
     assert _report_split(12.0, folder / "metrics.json") == {"report: training": 5.0,
                                                           "report: testing, plots and the page": 7.0}
     metrics = json.loads((folder / "metrics.json").read_text())
-    (folder / "metrics.json").write_text(json.dumps({**metrics, "dense": {"seconds": 4.0}}))
+    (folder / "metrics.json").write_text(json.dumps({**metrics, "dense": {"variant": "black", "seconds": 4.0}}))
     assert _report_split(12.0, folder / "metrics.json") == {
         "report: training": 5.0, "report: dense-label heads": 4.0, "report: testing, plots and the page": 3.0}
     assert _report_split(12.0, tmp_path / "missing.json") == {"report": 12.0}

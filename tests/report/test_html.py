@@ -1,5 +1,6 @@
 """The report page, from a hand-made metrics dict shaped like run_experiments' output (no training here)."""
 
+import json
 import os
 import re
 from pathlib import Path
@@ -10,11 +11,18 @@ import pytest
 from PIL import Image
 
 from deformsim.config import TrainConfig
+from deformsim.errors import UserError
 from deformsim.evaluate.calibration import reliability
 from deformsim.evaluate.experiments import review_order
 from deformsim.evaluate.metrics import compute_metrics
+from deformsim.evaluate.metrics_file import MetricsFile, Prediction, read_metrics
 from deformsim.evaluate.pca import pixel_pca_png
-from deformsim.report.html import write_report
+from deformsim.report import html as page
+
+
+def write_report(m: dict, out):
+    """The report page of ``m``, a metrics.json's content, read as the report reads the file."""
+    return page.write_report(MetricsFile.model_validate_json(json.dumps(m)), out)
 
 
 def _images(folder, n, rng):
@@ -58,7 +66,8 @@ def metrics(tmp_path):
     }
     cams = _images(out / "gradcam" / "black", 3, rng)  # stand-ins for run_experiments' heatmaps of 3 photos
     black["real"]["gradcam"] = [{**black["real"]["predictions"][i], "image": os.path.relpath(c, out)}
-                                for i, c in zip(review_order(black["real"]["predictions"], 0.5), cams)]
+                                for i, c in zip(review_order([Prediction(**p) for p in black["real"]["predictions"]], 0.5),
+                                                cams)]
     backgrounds = {"n_images": 8, "n_samples": 2, "examples": [],
                    "split": {"skipped": "a split needs at least 2 samples of each class, got 1 with y=0"},
                    "real": _result(real, y, [0.4] * 4 + [0.6, 0.6, 0.6, 0.2], "models/backgrounds_full/model.pt")}
@@ -249,13 +258,14 @@ def test_synthetic_samples_sit_beside_real_photos_of_their_class(metrics):
     assert "<h2>Synthetic samples</h2>" in html and ">real photos</div>" not in html
 
 
-def test_every_count_shown_is_escaped_too(metrics):
-    """Counts went into the page as they were: a metrics.json (or few-shot file) holding text there injected it."""
+def test_a_metrics_file_with_text_for_a_count_is_refused_in_one_line(metrics):
+    """Counts went into the page as they were: a metrics.json holding text there injected it. Such a file is no
+    report's: it is refused, naming the file and the value, before any page is made."""
     m, out = metrics
-    black = m["variants"]["black"]
-    black["n_images"] = "<script>a()</script>"
-    for e in m["variants"].values():
-        e["real"]["train"]["n"] = "<svg onload=b()>"
-    html = write_report(m, out).read_text()
-    assert "<script>" not in html and "<svg onload" not in html
-    assert "&lt;script&gt;a()&lt;/script&gt; images" in html and "&lt;svg onload=b()&gt;" in html
+    m["variants"]["black"]["n_images"] = "<script>a()</script>"
+    (out / "metrics.json").write_text(json.dumps(m))
+    with pytest.raises(UserError) as err:
+        read_metrics(out)
+    assert str(err.value) == (f"{out / 'metrics.json'} is not a deformsim report's metrics (metrics.json): "
+                              "variants.black.n_images: Input should be a valid integer (got <script>a()</script>)")
+    assert not (out / "report.html").exists()

@@ -7,6 +7,8 @@ import yaml
 from deformsim.config import Config, TrainConfig, dump_config
 from deformsim.dataset.layout import Layout
 from deformsim.evaluate.experiments import provenance
+from deformsim.evaluate.metrics_file import MetricsFile
+from deformsim.records import made
 from deformsim.report.settings import non_default, settings_section
 from deformsim.version import __version__
 
@@ -30,8 +32,8 @@ def test_settings_show_the_part_spec_version_and_every_changed_setting(tmp_path)
                                  "camera": {"polar": [40.0, 60.0]}, "generate": {"n": 16}})
     _dataset(tmp_path, cfg)
     train = TrainConfig(epochs=2, weights="offline")
-    metrics = {"settings": train.model_dump(mode="json"), "version": __version__,
-               "data": provenance(tmp_path, ["procedural", "black"])}
+    metrics = made(MetricsFile, {"settings": train.model_dump(mode="json"), "version": __version__,
+                                 "data": provenance(tmp_path, ["procedural", "black"]), "variants": {}})
     html = settings_section(metrics, [("data", str(tmp_path))])
     assert "mesh carton.stl (sha256 abababababababab)" in html
     assert "built-in can spec (sha256 cdcdcdcdcdcdcdcd)" in html and f"<td>{__version__}</td>" in html
@@ -47,8 +49,8 @@ def test_defaults_everywhere_say_so_and_a_broken_record_is_left_out(tmp_path):
     _dataset(tmp_path, Config())
     Layout(tmp_path).inputs.write_text("{not json")
     (tmp_path / "variants" / "procedural" / "composite.json").unlink()
-    metrics = {"settings": TrainConfig().model_dump(mode="json"), "version": __version__,
-               "data": provenance(tmp_path, ["procedural"])}
+    metrics = made(MetricsFile, {"settings": TrainConfig().model_dump(mode="json"), "version": __version__,
+                                 "data": provenance(tmp_path, ["procedural"]), "variants": {}})
     html = settings_section(metrics, [])
     assert "built-in soda can" in html and "sha256" not in html
     assert _pre(html) == "# every setting at its default"

@@ -36,11 +36,10 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Composite every image onto photo or procedural backgrounds (chroma key or exact alpha)."""
         import warnings
+        from statistics import mean
 
         from deformsim.composite.backgrounds import BackgroundWarning
         from deformsim.dataset.layout import Layout
-        from deformsim.dataset.manifest import read_parquet
-        from deformsim.dataset.variants import VARIANT_MANIFEST
 
         own = Layout(out).config
         engine = ConfigArgs(config or (str(own) if own.is_file() else None), {
@@ -52,10 +51,9 @@ def register(app: typer.Typer) -> None:
             warnings.showwarning = lambda message, *a, **k: err_console.print(
                 f"[yellow]warning:[/] {message}", highlight=False, soft_wrap=True
             )
-            variant = engine.composite(out, name, seed)
-        df = read_parquet(variant / VARIANT_MANIFEST, "variant manifest")
-        iou = df["matte_iou"].dropna()
-        quality = f"; matte IoU vs exact alpha: mean {iou.mean():.4f}, min {iou.min():.4f}" if len(iou) else ""
-        scenes = int((df["background"] == "surface").sum()) if "background" in df.columns else 0
-        shown = f", {scenes} of them rendered surface scenes" if scenes else ""
-        console.print(f"[bold]{len(df)}[/] composites ({engine.config.composite.matte} matte{shown}) in {variant}{quality}")
+            made = engine.composite(out, name, seed)
+        iou = made.matte_iou
+        quality = f"; matte IoU vs exact alpha: mean {mean(iou):.4f}, min {min(iou):.4f}" if iou else ""
+        shown = f", {made.surfaces} of them rendered surface scenes" if made.surfaces else ""
+        console.print(f"[bold]{made.images}[/] composites ({engine.config.composite.matte} matte{shown}) in "
+                      f"{made.folder}{quality}")

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import typer
 
@@ -21,15 +21,18 @@ from deformsim.cli.common import (
 )
 from deformsim.cli.summary import metric_cell, print_table, report_summary
 
+if TYPE_CHECKING:
+    from deformsim.evaluate.metrics_file import Scores
 
-def _print_metrics(title: str, m: dict) -> None:
+
+def _print_metrics(title: str, m: Scores) -> None:
     from rich.table import Table
 
     t = Table(title=f"{title} (95 % intervals)", show_header=True, header_style="bold")
     for col in ("images", "accuracy", "F1", "precision", "recall", "TN FP / FN TP"):
         t.add_column(col, justify="right")
-    (tn, fp), (fn, tp) = m["confusion"]["matrix"]
-    t.add_row(str(m["n"]), *(metric_cell(m, k) for k in ("accuracy", "f1", "precision", "recall")),
+    (tn, fp), (fn, tp) = m.confusion.matrix
+    t.add_row(str(m.n), *(metric_cell(m, k) for k in ("accuracy", "f1", "precision", "recall")),
               f"{tn} {fp} / {fn} {tp}")
     print_table(t)
 
@@ -51,8 +54,8 @@ def register(app: typer.Typer) -> None:
         """Print a trained model's accuracy, F1, precision, recall and confusion matrix on a test set."""
         engine = plain_engine(notify=note(err_console))
         result = engine.evaluate(model_dir, data, variant, real, threshold, out=out)
-        part = " (held-out part of its training split)" if result["held_out"] else ""
-        _print_metrics(f"{model_dir} on {result['test']}{part}", result["metrics"])
+        part = " (held-out part of its training split)" if result.held_out else ""
+        _print_metrics(f"{model_dir} on {result.test}{part}", result.metrics)
         if out is not None:
             console.print(f"metrics: {out}")
 

@@ -53,13 +53,11 @@ def train(
         "--ensemble": ("train.ensemble", ensemble),
     }, sets=set_).engine(progress)
     result = engine.train(data, out, variant, adapt, overwrite=overwrite)
-    cfg = engine.config.train
-    last = result.history[-1]
-    name, key = ("acc", "acc") if cfg.target == "label" else (last["metric"], "score")
-    val = "" if last[f"val_{key}"] is None else f", validation {name} {last[f'val_{key}']:.3f}"
+    name, score, val_score = result.record.history[-1].scores()
+    val = "" if val_score is None else f", validation {name} {val_score:.3f}"
     console.print(f"weights: {result.weights}", highlight=False)
-    console.print(f"{result.images} images, {cfg.epochs} epochs in {result.seconds:.1f} s: "
-                  f"train {name} {last[key]:.3f}{val}", highlight=False)
+    console.print(f"{result.images} images, {engine.config.train.epochs} epochs in {result.seconds:.1f} s: "
+                  f"train {name} {score:.3f}{val}", highlight=False)
     console.print(f"saved {result.model_path}")
 
 

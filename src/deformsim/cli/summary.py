@@ -3,14 +3,17 @@ baseline of the test set, and where the report is."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
 from deformsim.cli.common import console
+
+if TYPE_CHECKING:
+    from deformsim.evaluate.metrics_file import Scores
 
 WIDE = 200  # columns of a summary printed into a file or pipe, so that no cell wraps
 NAMED_WRONG = 5  # photos named per variant after a benchmark's table; its report lists them all
@@ -23,11 +26,10 @@ def _share(value: float | None, interval: list[float] | None = None) -> str:
     return f"{text} ({100 * interval[0]:.1f}-{100 * interval[1]:.1f})" if interval else text
 
 
-def metric_cell(m: dict, key: str) -> str:
-    """Metric ``key`` of ``m`` (from compute_metrics) as a percentage with its 95 % interval, "-" when undefined."""
-    if key in m.get("undefined", ()):
-        return "-"
-    return _share(m[key], (m.get("interval") or {}).get(key))
+def metric_cell(m: Scores, key: str) -> str:
+    """Metric ``key`` of ``m`` as a percentage with its 95 % interval, "-" when undefined."""
+    value = m.value(key)
+    return "-" if value is None else _share(value, m.interval_of(key))
 
 
 def print_table(table: Table, report: Path | None = None, notes: tuple[str, ...] = ()) -> None:
@@ -42,18 +44,20 @@ def print_table(table: Table, report: Path | None = None, notes: tuple[str, ...]
 
 def report_summary(report: Path) -> None:
     """Print the summary of the report at ``report`` (its report.html; metrics.json beside it)."""
-    metrics = json.loads((report.parent / "metrics.json").read_text(encoding="utf-8"))
+    from deformsim.evaluate.metrics_file import read_metrics
+
+    metrics = read_metrics(report.parent / "metrics.json")
     table = Table(title="Results (95 % intervals)", header_style="bold")
     for col in ("trained on", "tested on", "images", "accuracy", "F1", "precision", "recall", "majority class"):
         table.add_column(col, justify="left" if col in ("trained on", "tested on") else "right")
-    for variant, entry in metrics["variants"].items():
+    for variant, entry in metrics.variants.items():
         for part, name in (("real", "real photos"), ("split", "held-out renders")):
-            result = entry.get(part) or {}
-            if "metrics" not in result:
+            result = entry.ran(part)
+            if result is None:
                 continue
-            m, test = result["metrics"], result["test"]
-            share = test["n_deformed"] / test["n"] if test["n"] else None
-            table.add_row(variant, name, str(m["n"]), *(metric_cell(m, k) for k in ("accuracy", "f1", "precision", "recall")),
+            m, test = result.metrics, result.test
+            share = test.n_deformed / test.n if test.n else None
+            table.add_row(variant, name, str(m.n), *(metric_cell(m, k) for k in ("accuracy", "f1", "precision", "recall")),
                           _share(None if share is None else max(share, 1 - share)))
     print_table(table, report)
 

@@ -23,6 +23,7 @@ import math
 import os
 import re
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -72,8 +73,20 @@ def default_name(cfg: CompositeConfig) -> str:
     return "backgrounds" if cfg.backgrounds else "procedural"
 
 
-def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: int = 0, progress: bool = True) -> Path:
-    """Composite every image of the dataset at ``root`` onto backgrounds; returns the variant folder.
+@dataclass(frozen=True)
+class Composited:
+    """A variant just made: its folder, its number of images, how many of them show a rendered surface scene, and
+    the IoU of each matte compared with the exact alpha (the chroma mattes of a dataset rendered with it)."""
+
+    folder: Path
+    images: int
+    surfaces: int
+    matte_iou: list[float]
+
+
+def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: int = 0,
+              progress: bool = True) -> Composited:
+    """Composite every image of the dataset at ``root`` onto backgrounds into a variant folder.
 
     Inputs are checked before any work (:class:`UserError`); an existing variant of the same name is
     replaced only when the new one is complete.
@@ -110,7 +123,8 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
         df = pd.DataFrame(rows).sort_values("id").reset_index(drop=True)
         df.to_parquet(tmp / VARIANT_MANIFEST, index=False)
         write_json(tmp / SETTINGS_FILE, variant_settings(name, seed, cfg))
-    return final
+    surfaces = int((df["background"] == SURFACE_KIND).sum()) if "background" in df else 0
+    return Composited(final, len(df), surfaces, df["matte_iou"].dropna().tolist())
 
 
 def twin_ids(manifest: pd.DataFrame) -> dict[str, str]:

@@ -32,7 +32,9 @@ from deformsim.errors import UserError
 from deformsim.evaluate.dense_experiments import plan as plan_dense
 from deformsim.evaluate.dense_experiments import run_dense
 from deformsim.evaluate.metrics import compute_metrics
+from deformsim.evaluate.metrics_file import Evaluation, Heatmap, MetricsFile, Prediction
 from deformsim.log import get_logger
+from deformsim.records import made
 from deformsim.version import __version__
 
 log = get_logger(__name__)
@@ -106,18 +108,19 @@ def _examples(table: pd.DataFrame, rng: np.random.Generator) -> list[dict]:
     return out
 
 
-def review_order(predictions: list[dict], threshold: float) -> list[int]:
-    """Indices of ``predictions`` ({"y", "prob"}) to review: the misclassified (most confident first), then the
-    others (least confident first); ties keep their order."""
+def review_order(predictions: list[Prediction], threshold: float) -> list[int]:
+    """Indices of ``predictions`` to review: the misclassified (most confident first), then the others (least
+    confident first); ties keep their order."""
     def key(i: int) -> tuple[int, float]:
         p = predictions[i]
-        margin = abs(p["prob"] - threshold)
-        return (0, -margin) if (p["prob"] >= threshold) != bool(p["y"]) else (1, margin)
+        margin = abs(p.prob - threshold)
+        return (0, -margin) if (p.prob >= threshold) != bool(p.y) else (1, margin)
 
     return sorted(range(len(predictions)), key=key)
 
 
-def gradcam_images(predictor, predictions: list[dict], threshold: float, out_dir: Path, folder: str) -> list[dict]:
+def gradcam_images(predictor, predictions: list[Prediction], threshold: float, out_dir: Path,
+                   folder: str) -> list[Heatmap]:
     """Grad-CAM overlays of the first :data:`GRADCAM_MAX` photos in :func:`review_order`, written as
     ``out_dir/folder/<n>.png``; returns their predictions, each with its ``image`` relative to ``out_dir``."""
     from PIL import Image
@@ -126,16 +129,16 @@ def gradcam_images(predictor, predictions: list[dict], threshold: float, out_dir
     from deformsim.learn.gradcam import overlay
 
     chosen = [predictions[i] for i in review_order(predictions, threshold)[:GRADCAM_MAX]]
-    cams = predictor.gradcam([p["path"] for p in chosen])
+    cams = predictor.gradcam([p.path for p in chosen])
     out = []
     for n, (p, cam) in enumerate(zip(chosen, cams)):
-        photo = crop(open_rgb(p["path"]), predictor.cfg.crop)  # what the model saw
+        photo = crop(open_rgb(p.path), predictor.cfg.crop)  # what the model saw
         photo.thumbnail((GRADCAM_SIZE, GRADCAM_SIZE))
         buf = io.BytesIO()
         Image.fromarray(overlay(np.asarray(photo), cam)).save(buf, format="PNG")
         name = f"{folder}/{n}.png"
         write_bytes(out_dir / name, buf.getvalue())
-        out.append({**p, "image": name})
+        out.append(Heatmap(**p.model_dump(), image=name))
     return out
 
 
@@ -199,20 +202,17 @@ def low_synthetic_runs(results: dict) -> list[str]:
     return [line for line in lines if line]
 
 
-def low_synthetic(metrics: dict) -> list[str]:
+def low_synthetic(metrics: MetricsFile) -> list[str]:
     """:func:`low_synthetic_line` of every variant of a report's ``metrics`` that has one."""
-    lines = []
-    for v, entry in metrics.get("variants", {}).items():
-        acc = (entry.get("split") or {}).get("metrics", {}).get("accuracy")
-        if acc is not None and (line := low_synthetic_line(v, acc)):
-            lines.append(line)
-    return lines
+    lines = (low_synthetic_line(v, split.metrics.accuracy) for v, entry in metrics.variants.items()
+             if (split := entry.ran("split")) is not None)
+    return [line for line in lines if line]
 
 
 def run_experiments(
     data_root: str | Path, cfg: TrainConfig, out_dir: str | Path, real_dir: str | Path | None = None,
     progress: bool = True,
-) -> dict:
+) -> MetricsFile:
     """Run Table II for every variant of ``cfg.variants`` present in ``data_root``; write ``metrics.json``."""
     from deformsim.evaluate import pca
     from deformsim.learn import predict
@@ -261,7 +261,9 @@ def run_experiments(
         plots["pca_features"][v] = name
         if "real" in entry:
             _log(progress, f"{v}: Grad-CAM heatmaps of real photos")
-            part["gradcam"] = gradcam_images(predictor, part["predictions"], cfg.threshold, out_dir, f"gradcam/{v}")
+            predictions = [Prediction(**p) for p in part["predictions"]]
+            part["gradcam"] = [h.model_dump() for h in gradcam_images(predictor, predictions, cfg.threshold, out_dir,
+                                                                      f"gradcam/{v}")]
 
     if dense is not None:
         _log(progress, f"{dense[0]}: dense-label heads (severity, family, localise)")
@@ -281,7 +283,8 @@ def run_experiments(
     }
     if dense is not None:
         metrics["dense"] = dense
-    write_json(out_dir / "metrics.json", metrics)
+    metrics = made(MetricsFile, metrics)
+    metrics.write(out_dir / "metrics.json")
     for line in low_synthetic(metrics):
         log.warning(line)
     return metrics
@@ -295,12 +298,12 @@ def _log(progress: bool, message: str) -> None:
 def evaluate_model(
     model: str | Path, data_root: str | Path | None = None, variant: str | None = None,
     real_dir: str | Path | None = None, threshold: float | None = None,
-) -> dict:
-    """Metrics of a trained model on a synthetic variant (``data_root`` + ``variant``) or a real folder.
+) -> Evaluation:
+    """Metrics and predictions of a trained model on a synthetic variant (``data_root`` + ``variant``) or a real
+    folder.
 
     A model trained on a split (its folder holds ``split.json``) is tested on that split's held-out images
     only. ``threshold`` defaults to the model's training threshold.
-    Returns ``{"model", "test", "n_images", "held_out", "metrics", "predictions"}``.
     """
     from deformsim.learn import predict
     from deformsim.learn.finetune import check_unseen
@@ -324,8 +327,8 @@ def evaluate_model(
     check_unseen(predictor.path, table["path"])
     prob = predictor.predict_proba(list(table["path"]))
     threshold = predictor.cfg.threshold if threshold is None else threshold
-    return {
+    return made(Evaluation, {
         "model": str(model), "test": test, "n_images": len(table), "held_out": held_out,
         "metrics": compute_metrics(table["y"].to_numpy(), prob, threshold),
         "predictions": [{"path": p, "y": int(y), "prob": float(q)} for p, y, q in zip(table["path"], table["y"], prob)],
-    }
+    })

@@ -27,15 +27,14 @@ from __future__ import annotations
 import time
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import TYPE_CHECKING
 
 import numpy as np
-from pydantic import ConfigDict, Field
 
 from deformsim.atomic import write_bytes, write_json
 from deformsim.errors import UserError
+from deformsim.evaluate.fewshot_file import CURVES, CurveRow, FewshotFile
 from deformsim.log import get_logger
-from deformsim.schema import StrictModel
 
 if TYPE_CHECKING:
     from deformsim.learn.finetune import Recipe
@@ -43,7 +42,6 @@ if TYPE_CHECKING:
 log = get_logger(__name__)
 
 KS = (0, 1, 2, 5, 10, 20)
-CURVES = ("synthetic", "unadapted", "imagenet")
 TITLES = {"synthetic": "synthetic-pretrained, adapted", "unadapted": "synthetic-pretrained, not adapted",
           "imagenet": "ImageNet only, trained on the k photos"}
 BOOTSTRAP = 2000
@@ -241,7 +239,8 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
         "seconds": time.perf_counter() - start,
     }
     write_json(out / "fewshot.json", results)
-    write_bytes(out / "fewshot.png", fewshot_png(results, TITLES))
+    curves = {c: [CurveRow.model_validate(r, strict=False) for r in rows] for c, rows in results["curves"].items()}
+    write_bytes(out / "fewshot.png", fewshot_png(curves, TITLES))
     return results
 
 
@@ -256,81 +255,16 @@ def _reset_head(net, seed: int) -> None:
                 layer.reset_parameters()
 
 
-MAX_FILE = 256 << 20  # bytes of a fewshot.json (a million runs)
-Share = Annotated[float, Field(ge=0, le=1)]
-Count = Annotated[int, Field(ge=0, le=10**9)]
-
-
-class _File(StrictModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
-
-
-class CurveRow(_File):
-    """One k of a curve, as :func:`_summary` writes it."""
-
-    k: Count
-    runs: Annotated[int, Field(ge=1, le=10**9)]
-    interval: Annotated[str, Field(max_length=20)] | None = None  # what the interval resamples: photos, draws, seeds
-    majority: Share
-    accuracy: Share
-    f1: Share
-    accuracy_interval: tuple[Share, Share]
-    f1_interval: tuple[Share, Share]
-
-
-class Photos(_File):
-    intact: Count
-    deformed: Count
-
-
-class FewshotFile(_File):
-    """``bench fewshot``'s ``fewshot.json``: what the report shows typed exactly; the rest of what it records
-    may be missing (an older file) but has its type."""
-
-    kind: Literal["fewshot"]
-    real_dir: Annotated[str, Field(max_length=4096)]
-    model: Annotated[str, Field(max_length=4096)]
-    majority_baseline: Share
-    photos: Photos
-    draws: Annotated[int, Field(ge=1, le=1000)]
-    seeds: Annotated[int, Field(ge=1, le=1000)]
-    curves: Annotated[dict[Literal[CURVES], Annotated[list[CurveRow], Field(min_length=1)]], Field(min_length=1)]
-    created: str | None = None
-    backbone: str | None = None
-    weights: dict[str, str] | None = None
-    ks: list[Count] | None = None
-    capped: list[Count] | None = None
-    recipe: dict[str, object] | None = None
-    data: str | None = None
-    variant: str | None = None
-    runs: list[dict[str, object]] | None = None
-    seconds: Annotated[float, Field(ge=0)] | None = None
-
-
 def read_results(path: str | Path) -> dict:
     """A ``fewshot.json`` checked against :class:`FewshotFile` (as the report shows it); one line naming the file and
     its first bad value otherwise."""
-    import json
-
     from pydantic import ValidationError
 
+    from deformsim.records import load_json
     from deformsim.schema import first_error, shown
 
     refused = f"--fewshot {path} is not a deformsim few-shot result (bench fewshot's fewshot.json)"
-    try:
-        with open(path, "rb") as f:
-            raw = f.read(MAX_FILE + 1)
-    except FileNotFoundError:
-        raise UserError(f"--fewshot {path}: no such file (run deformsim bench fewshot)") from None
-    except OSError as exc:
-        raise UserError(f"--fewshot {path} cannot be read: {exc.strerror}") from None
-    if len(raw) > MAX_FILE:
-        raise UserError(f"{refused}: larger than {MAX_FILE >> 20} MiB")
-    try:
-        results = json.loads(raw)
-    except (ValueError, RecursionError) as exc:
-        why = "nested too deeply" if isinstance(exc, RecursionError) else "not JSON"
-        raise UserError(f"{refused}: {why}") from None
+    raw, results = load_json(path, f"--fewshot {path}", refused, "run deformsim bench fewshot")
     try:
         FewshotFile.model_validate_json(raw)
     except ValidationError as exc:

@@ -24,7 +24,6 @@ import pandas as pd
 import torch
 from torch import nn
 
-from deformsim.atomic import write_json
 from deformsim.config import TrainConfig
 from deformsim.dataset.tables import check_table, split
 from deformsim.errors import UserError
@@ -33,7 +32,9 @@ from deformsim.learn.data import ImageSet, training_transform
 from deformsim.learn.device import pick_device, set_threads
 from deformsim.learn.features import cached_stem, pass_size
 from deformsim.learn.models import LOGIT_EPS, DeformNet, build, members
+from deformsim.learn.train_file import TrainFile
 from deformsim.log import get_logger, progress_bar
+from deformsim.records import made
 
 log = get_logger(__name__)
 STALL_MARGIN = 0.02  # training accuracy within this of the majority class's share: the model learned nothing
@@ -46,7 +47,8 @@ class TrainResult:
     # (other targets: score and val_score instead of acc and val_acc, and the score's name as metric)
     weights: str  # where the ImageNet weights came from; several backbones' joined by " + "
     seconds: float
-    held_out: dict | None  # label models: ids and P(deformed) of the images training held out (train.json)
+    held_out: dict | None  # label models: ids and P(deformed) of the images training held out
+    record: TrainFile  # what train.json holds
 
 
 class _Inputs:
@@ -323,8 +325,9 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
         info["mixture"] = [{"backbone": t.cfg.backbone, "weights": t.weights, "history": t.history,
                             "adapted": t.adapted, "ensemble": t.ensemble} for t in trained[1:]]
         info["mixture_validation"] = mixed
-    write_json(out_dir / "train.json", info)
-    return TrainResult(model_path, first.history, " + ".join(t.weights for t in trained), seconds, held_out)
+    record = made(TrainFile, info)
+    record.write(out_dir / "train.json")
+    return TrainResult(model_path, first.history, " + ".join(t.weights for t in trained), seconds, held_out, record)
 
 
 def _train(table: pd.DataFrame, cfg: TrainConfig, outputs: list[str], progress: bool, adapt: Path | None,

@@ -8,6 +8,8 @@ from pathlib import Path
 
 from deformsim.dataset.images import open_rgb
 from deformsim.errors import UserError
+from deformsim.evaluate.fewshot_file import CurveRow
+from deformsim.learn.train_file import Epoch
 
 
 def data_uri(data: bytes, mime: str) -> str:
@@ -53,7 +55,7 @@ def _text(name: str) -> str:
     return name.replace("$", r"\$")
 
 
-def curves_png(histories: dict[str, list[dict] | None]) -> list[bytes]:
+def curves_png(histories: dict[str, list[Epoch] | None]) -> list[bytes]:
     """Two figures, one colour per model: training loss per epoch, and accuracy on its validation images (the
     training accuracy, dashed, where it held none out); each with its legend beside the plot. [] without history."""
     histories = {k: h for k, h in histories.items() if h}
@@ -62,24 +64,24 @@ def curves_png(histories: dict[str, list[dict] | None]) -> list[bytes]:
     from matplotlib.ticker import MaxNLocator
 
     plt = _pyplot()
-    no_val = any(h.get("val_acc") is None for hist in histories.values() for h in hist)
+    no_val = any(h.val_acc is None for hist in histories.values() for h in hist)
     figures = []
     for what in ("training loss (cross-entropy)", "validation accuracy"):
         fig, ax = plt.subplots(figsize=(5.2, 3.0), dpi=110)
         for i, (name, hist) in enumerate(histories.items()):
-            epochs = [h["epoch"] for h in hist]
+            epochs = [h.epoch for h in hist]
             style = {"marker": "o", "ms": 3, "color": f"C{i}", "label": _text(name)}
             if what.startswith("training"):
-                ax.plot(epochs, [h["loss"] for h in hist], **style)
-            elif val := [(e, h["val_acc"]) for e, h in zip(epochs, hist) if h.get("val_acc") is not None]:
+                ax.plot(epochs, [h.loss for h in hist], **style)
+            elif val := [(e, h.val_acc) for e, h in zip(epochs, hist) if h.val_acc is not None]:
                 ax.plot(*zip(*val), **style)
             else:
-                ax.plot(epochs, [h["acc"] for h in hist], ls="--", **style)
+                ax.plot(epochs, [h.acc for h in hist], ls="--", **style)
         if what.startswith("validation"):
             ax.set_ylim(0, 1.02)
             if no_val:
                 ax.plot([], [], ls="--", color="#888", label="dashed: training accuracy\n(no validation images)")
-        epochs = [h["epoch"] for hist in histories.values() for h in hist]
+        epochs = [h.epoch for hist in histories.values() for h in hist]
         ax.set_xlim(min(epochs) - 0.5, max(epochs) + 0.5)
         ax.set_xlabel("epoch")
         ax.set_ylabel(what, fontsize=9)
@@ -150,25 +152,25 @@ def error_bars_png(groups: list[str], series: dict[str, list[tuple[float, float,
     return _png(fig)
 
 
-def fewshot_png(results: dict, titles: dict[str, str]) -> bytes:
-    """Accuracy and F1 against the photos per class adapted on (``bench fewshot``'s results): one line per curve
+def fewshot_png(curves: dict[str, list[CurveRow]], titles: dict[str, str]) -> bytes:
+    """Accuracy and F1 against the photos per class adapted on (``bench fewshot``'s ``curves``): one line per curve
     (named by ``titles``) with its 95 % interval as a band, and under accuracy the majority-class share of the
     photos scored at each k (dashed)."""
     plt = _pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(9.6, 3.4), dpi=110)
     for ax, key, label in zip(axes, ("accuracy", "f1"), ("accuracy", "F1 (deformed = positive)")):
-        for i, (curve, rows) in enumerate(results["curves"].items()):
-            k = [r["k"] for r in rows]
-            lo, hi = zip(*(r[f"{key}_interval"] for r in rows)) if rows else ((), ())
+        for i, (curve, rows) in enumerate(curves.items()):
+            k = [r.k for r in rows]
+            lo, hi = zip(*(getattr(r, f"{key}_interval") for r in rows)) if rows else ((), ())
             ax.fill_between(k, lo, hi, color=f"C{i}", alpha=0.18, lw=0)
-            ax.plot(k, [r[key] for r in rows], "o-", ms=3.5, color=f"C{i}", label=_text(titles.get(curve, curve)))
+            ax.plot(k, [getattr(r, key) for r in rows], "o-", ms=3.5, color=f"C{i}", label=_text(titles.get(curve, curve)))
         if key == "accuracy":
-            rows = min(results["curves"].values(), key=lambda rows: -len(rows))  # the one with most k
-            ax.plot([r["k"] for r in rows], [r["majority"] for r in rows], ls="--", lw=1, color="#888",
+            rows = min(curves.values(), key=lambda rows: -len(rows))  # the one with most k
+            ax.plot([r.k for r in rows], [r.majority for r in rows], ls="--", lw=1, color="#888",
                     label="majority class of the photos scored")
         ax.set(ylim=(0, 1.02), xlabel="labelled real photos per class adapted on (k)")
         ax.set_ylabel(label, fontsize=9)
-        ax.set_xticks(sorted({r["k"] for rows in results["curves"].values() for r in rows}))
+        ax.set_xticks(sorted({r.k for rows in curves.values() for r in rows}))
         ax.grid(alpha=0.25)
         for side in ("top", "right"):
             ax.spines[side].set_visible(False)

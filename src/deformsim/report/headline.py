@@ -5,26 +5,21 @@ its model is the one that test scored."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-PARTS = ("split", "real")  # the tests of a variant, as metrics.json keys them
+from deformsim.errors import UserError
+from deformsim.evaluate.metrics_file import Experiment, MetricsFile, read_metrics
+
 RUN_MODEL = "model"  # the folder of a run (deformsim run) that holds the model it is meant to be used with
 
 
-def results(metrics: dict) -> list[tuple[str, str, dict]]:
-    """(variant, part, result) for every experiment that ran."""
-    return [(v, part, e[part]) for v, e in metrics["variants"].items() for part in PARTS
-            if "metrics" in (e.get(part) or {})]
-
-
-def headline(metrics: dict) -> tuple[str, str, dict] | None:
-    """(variant, part, result) of the report's headline test; None when no test ran."""
-    ran = results(metrics)
+def headline(metrics: MetricsFile) -> tuple[str, str, Experiment] | None:
+    """(variant, part, test) of the report's headline test; None when no test ran."""
+    ran = metrics.results()
     for want in ("real", "split"):
         cands = [r for r in ran if r[1] == want]
         if cands:
-            return max(cands, key=lambda r: r[2]["metrics"]["accuracy"])
+            return max(cands, key=lambda r: r[2].metrics.accuracy)
     return None
 
 
@@ -54,12 +49,11 @@ def headline_model(report: str | Path) -> Path | None:
     """The model folder of the headline test of the report folder ``report``; None when ``report`` holds no readable
     report or that model is gone."""
     try:
-        metrics = json.loads((Path(report) / "metrics.json").read_text(encoding="utf-8"))
-        head = headline(metrics)
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        head = headline(read_metrics(Path(report) / "metrics.json"))
+    except UserError:
         return None
-    if head is None or not isinstance(head[2].get("model"), str):
+    if head is None:
         return None
-    model = Path(report) / head[2]["model"]  # the model file, or (an older report) its folder
+    model = Path(report) / head[2].model  # the model file, or (an older report) its folder
     model = model.parent if model.name == "model.pt" else model
     return model if (model / "model.pt").is_file() else None

@@ -1,7 +1,7 @@
 """Render ``metrics.json`` (from :func:`deformsim.evaluate.experiments.run_experiments`) as one HTML page.
 
 The page is self-contained: CSS inline, every image a base64 ``data:`` URI, no external resource. Plot files
-named in ``metrics["plots"]`` are read relative to the report folder.
+named in ``metrics.plots`` are read relative to the report folder.
 """
 
 from __future__ import annotations
@@ -13,10 +13,12 @@ from deformsim.atomic import write_text
 from deformsim.dataset.images import CLASSES
 from deformsim.evaluate.calibration import reliability
 from deformsim.evaluate.experiments import low_synthetic
+from deformsim.evaluate.metrics_file import Experiment, MetricsFile, Scores, Variant
+from deformsim.learn.train_file import Epoch
 from deformsim.report.dense_html import dense_section
 from deformsim.report.fewshot_html import fewshot_section
 from deformsim.report.figures import curves_png, data_uri, png_file_uri, reliability_png
-from deformsim.report.headline import headline, results
+from deformsim.report.headline import headline
 from deformsim.report.predictions import predictions_section, thumb
 from deformsim.report.settings import settings_section
 
@@ -89,29 +91,16 @@ def _pct(x: float | None) -> str:
     return "—" if x is None else f"{100 * x:.1f}%"
 
 
-def _value(m: dict, key: str) -> float | None:
-    """A metric, or None when it is undefined (precision with no positive prediction, ...)."""
-    return None if key in m.get("undefined", ()) else m[key]
-
-
-def _interval(m: dict, key: str) -> list[float] | None:
-    return (m.get("interval") or {}).get(key) if _value(m, key) is not None else None
-
-
 def _span(iv: list[float] | None) -> str:
     return "" if iv is None else f"{100 * iv[0]:.1f}–{100 * iv[1]:.1f}%"
 
 
-def _baseline(m: dict) -> float:
-    return max(m["n_deformed"], m["n"] - m["n_deformed"]) / m["n"]
-
-
-def _verdict(m: dict) -> str:
+def _verdict(m: Scores) -> str:
     """"above" when the accuracy's 95 % interval lies above the majority baseline, "below" when under it, else ""."""
-    iv = _interval(m, "accuracy")
+    iv = m.interval_of("accuracy")
     if iv is None:
         return ""
-    base = _baseline(m)
+    base = m.baseline()
     return "above" if iv[0] > base else "below" if iv[1] < base else ""
 
 
@@ -121,35 +110,35 @@ def _shade(x: float) -> str:
     return f"hsl({int(4 + 126 * t)},60%,{92 - 8 * t:.0f}%)"
 
 
-def _hero(metrics: dict) -> str:
+def _hero(metrics: MetricsFile) -> str:
     head = headline(metrics)
     if head is None:
         return '<div class="card">No experiment ran (see the notes in the table).</div>'
     v, part, r = head
-    m = r["metrics"]
+    m = r.metrics
     what = ("sim-to-real accuracy" if part == "real" else "accuracy on held-out synthetic images"
             + " <em>(no real test set given)</em>")
-    baseline, verdict = _baseline(m), _verdict(m)
-    iv = _interval(m, "accuracy")
+    baseline, verdict = m.baseline(), _verdict(m)
+    iv = m.interval_of("accuracy")
     judged = {"above": "above the majority baseline", "below": "below the majority baseline"}.get(
         verdict, f"not distinguishable from the majority baseline ({_pct(baseline)})")
     ci = f"95 % interval {_span(iv)} (Wilson): {judged}" if iv else ""
     cards = [
-        f'<div class="card"><div class="big {verdict}">{_pct(m["accuracy"])}</div><div>{what}</div>'
+        f'<div class="card"><div class="big {verdict}">{_pct(m.accuracy)}</div><div>{what}</div>'
         f'<div class="sub">{ci}</div>'
-        f'<div class="sub">model trained on {escape(str(r["train"]["n"]))} synthetic <b>{escape(v)}</b> images, '
-        f'tested on {escape(str(m["n"]))} {"real photographs" if part == "real" else "held-out images"}</div></div>'
+        f'<div class="sub">model trained on {escape(str(r.train.n))} synthetic <b>{escape(v)}</b> images, '
+        f'tested on {escape(str(m.n))} {"real photographs" if part == "real" else "held-out images"}</div></div>'
     ]
-    f1_iv = _interval(m, "f1")
-    shares = " · ".join(f'{k} {_pct(_value(m, k))}' + (f" ({_span(_interval(m, k))})" if _interval(m, k) else "")
+    f1_iv = m.interval_of("f1")
+    shares = " · ".join(f'{k} {_pct(m.value(k))}' + (f" ({_span(m.interval_of(k))})" if m.interval_of(k) else "")
                         for k in ("precision", "recall"))
     cards.append(
-        f'<div class="card"><div class="mid">{_pct(_value(m, "f1"))}</div><div>F1 (deformed = positive)</div>'
+        f'<div class="card"><div class="mid">{_pct(m.value("f1"))}</div><div>F1 (deformed = positive)</div>'
         + (f'<div class="sub">95 % interval {_span(f1_iv)} (Wilson)</div>' if f1_iv else "")
-        + f'<div class="sub">{shares} · threshold {m["threshold"]:g}</div></div>'
+        + f'<div class="sub">{shares} · threshold {m.threshold:g}</div></div>'
     )
-    synthetic = metrics["variants"][v].get("split", {}).get("metrics") if part == "real" else None
-    extra = f"<br>held-out synthetic accuracy {_pct(synthetic['accuracy'])}" if synthetic else ""
+    split = metrics.variants[v].ran("split") if part == "real" else None
+    extra = f"<br>held-out synthetic accuracy {_pct(split.metrics.accuracy)}" if split else ""
     cards.append(
         f'<div class="card"><div class="mid">{_pct(baseline)}</div><div>majority-class baseline</div>'
         f'<div class="sub">accuracy of always answering the commoner label{extra}</div></div>'
@@ -157,13 +146,13 @@ def _hero(metrics: dict) -> str:
     return f'<div class="hero">{"".join(cards)}</div>'
 
 
-def _clear_best(metrics: dict) -> set[tuple[str, str, str]]:
+def _clear_best(metrics: MetricsFile) -> set[tuple[str, str, str]]:
     """(variant, part, key) of each value whose 95 % interval lies wholly above every other variant's."""
     out = set()
     for part, _ in PARTS:
-        ran = [(v, r["metrics"]) for v, p, r in results(metrics) if p == part]
+        ran = [(v, r.metrics) for v, p, r in metrics.results() if p == part]
         for k in WITH_INTERVAL:
-            ivs = {v: _interval(m, k) for v, m in ran}
+            ivs = {v: m.interval_of(k) for v, m in ran}
             for v, iv in ivs.items():
                 others = [o for w, o in ivs.items() if w != v]
                 if iv is not None and others and all(o is not None and iv[0] > o[1] for o in others):
@@ -171,30 +160,30 @@ def _clear_best(metrics: dict) -> set[tuple[str, str, str]]:
     return out
 
 
-def _table2(metrics: dict) -> str:
+def _table2(metrics: MetricsFile) -> str:
     best = _clear_best(metrics)
-    real = any(part == "real" for _, part, _ in results(metrics))
+    real = any(part == "real" for _, part, _ in metrics.results())
     parts = PARTS[::-1] if real else PARTS  # the real-photo test, the headline, first: on a phone it is on screen
     head = "".join(f'<th colspan="4" class="grp">{title}</th>' for _, title in parts)
     sub = "".join(
         f'<th{" class=grp" if i == 0 else ""}>{label}</th>' for _ in parts for i, (_, label) in enumerate(KEYS)
     )
     rows = []
-    for v, e in metrics["variants"].items():
+    for v, e in metrics.variants.items():
         cells = []
         for part, _ in parts:
-            r = e.get(part)
-            if not r or "metrics" not in r:
-                why = r.get("skipped", "") if r else "no real folder given"
+            r = e.ran(part)
+            if r is None:
+                why = "no real folder given" if getattr(e, part) is None else getattr(e, part).skipped
                 cells.append(f'<td colspan="4" class="grp sub" title="{escape(why)}">— {escape(why)}</td>')
                 continue
             for i, (k, _) in enumerate(KEYS):
-                x = _value(r["metrics"], k)
+                x = r.metrics.value(k)
                 cls = " ".join(c for c in ("grp" if i == 0 else "", "best" if (v, part, k) in best else "") if c)
                 shade = f' style="background:{_shade(x)}"' if x is not None else ""
-                ci = _span(_interval(r["metrics"], k))
+                ci = _span(r.metrics.interval_of(k))
                 cells.append(f'<td class="{cls}"{shade}>{_pct(x)}{f"<span class=ci>{ci}</span>" if ci else ""}</td>')
-        rows.append(f"<tr><td class=v><b>{escape(v)}</b><div class=sub>{escape(str(e['n_images']))} images</div></td>"
+        rows.append(f"<tr><td class=v><b>{escape(v)}</b><div class=sub>{escape(str(e.n_images))} images</div></td>"
                     f"{''.join(cells)}</tr>")
     hint = "the held-out synthetic columns" if real else "more columns"
     return (f'<div class=scroll><table class="t2"><tr><th rowspan="2" class=v>Training variant</th>{head}</tr>'
@@ -221,12 +210,12 @@ def _confusion(title: str, cm: list[list[int]]) -> str:
             f"<tr><th></th>{pred}</tr>{''.join(body)}</table></div>")
 
 
-def _real_results(metrics: dict) -> list[tuple[str, dict]]:
-    return [(v, r) for v, part, r in results(metrics) if part == "real"]
+def _real_results(metrics: MetricsFile) -> list[tuple[str, Experiment]]:
+    return [(v, r) for v, part, r in metrics.results() if part == "real"]
 
 
-def _calibration(metrics: dict) -> str:
-    diagrams = {v: reliability([p["y"] for p in r["predictions"]], [p["prob"] for p in r["predictions"]])
+def _calibration(metrics: MetricsFile) -> str:
+    diagrams = {v: reliability([p.y for p in r.predictions], [p.prob for p in r.predictions])
                 for v, r in _real_results(metrics)}
     if not diagrams:
         return ""
@@ -240,17 +229,17 @@ def _calibration(metrics: dict) -> str:
                       f"{escape(v)}'>" for v, d in diagrams.items()) + "</div>")
 
 
-def _gradcams(metrics: dict, out_dir: Path) -> str:
+def _gradcams(metrics: MetricsFile, out_dir: Path) -> str:
     blocks = []
     for v, r in _real_results(metrics):
-        if not r.get("gradcam"):
+        if not r.gradcam:
             continue
-        thr = r["metrics"]["threshold"]
-        cells = [thumb(out_dir / g["image"], f'{CLASSES[g["y"]]} · P(deformed) {g["prob"]:.2f}'
-                        f'<div class=sub>{escape(Path(g["path"]).name)}</div>',
-                        "cam " + ("bad" if (g["prob"] >= thr) != bool(g["y"]) else "ok"), 180, g["path"])
-                 for g in r["gradcam"]]
-        blocks.append(f"<h3>{escape(v)}</h3><p class=note>{len(cells)} of the {len(r['predictions'])} photos, in "
+        thr = r.metrics.threshold
+        cells = [thumb(out_dir / g.image, f'{CLASSES[g.y]} · P(deformed) {g.prob:.2f}'
+                        f'<div class=sub>{escape(Path(g.path).name)}</div>',
+                        "cam " + ("bad" if (g.prob >= thr) != bool(g.y) else "ok"), 180, g.path)
+                 for g in r.gradcam]
+        blocks.append(f"<h3>{escape(v)}</h3><p class=note>{len(cells)} of the {len(r.predictions)} photos, in "
                       f"review order.</p><div class=grid>{''.join(cells)}</div>")
     if not blocks:
         return ""
@@ -260,9 +249,8 @@ def _gradcams(metrics: dict, out_dir: Path) -> str:
             "then the others, least confident first; captions give the true label.</p>" + "".join(blocks))
 
 
-def _plots(metrics: dict, out_dir: Path) -> str:
-    plots = metrics.get("plots", {})
-    names = [plots.get("pca_pixels")] + list(plots.get("pca_features", {}).values())
+def _plots(metrics: MetricsFile, out_dir: Path) -> str:
+    names = [metrics.plots.pca_pixels, *metrics.plots.pca_features.values()]
     imgs = [uri for uri in (png_file_uri(out_dir / n) for n in names if n) if uri]
     if not imgs:
         return ""
@@ -271,48 +259,53 @@ def _plots(metrics: dict, out_dir: Path) -> str:
             f'<div class="plots two">{"".join(f"<img src={u!r} alt=PCA>" for u in imgs)}</div>')
 
 
-def _settings(metrics: dict) -> str:
-    rows = [("data", metrics.get("data_root")), ("real folder", metrics.get("real_dir") or "—"),
-            ("created", metrics.get("created")), ("total time", f"{metrics.get('seconds', 0):.1f} s")]
-    if metrics.get("missing_variants"):
-        rows.append(("variants not in the data", ", ".join(metrics["missing_variants"])))
+def _settings(metrics: MetricsFile) -> str:
+    rows = [("data", metrics.data_root), ("real folder", metrics.real_dir or "—"),
+            ("created", metrics.created), ("total time", f"{metrics.seconds:.1f} s")]
+    if metrics.missing_variants:
+        rows.append(("variants not in the data", ", ".join(metrics.missing_variants)))
     rows = [(k, escape(str(val))) for k, val in rows]
-    for v, part, r in results(metrics):
-        rows.append((f"model {v} / {part}", f"<code>{escape(r['model'])}</code> · weights <b>{escape(r['weights'])}"
-                     f"</b> · train {r['train_seconds']:.1f} s · predict {r['predict_seconds']:.1f} s"))
+    for v, part, r in metrics.results():
+        rows.append((f"model {v} / {part}", f"<code>{escape(r.model)}</code> · weights <b>{escape(r.weights)}"
+                     f"</b> · train {r.train_seconds:.1f} s · predict {r.predict_seconds:.1f} s"))
     return settings_section(metrics, rows)
 
 
-def _samples(metrics: dict) -> str:
+def _samples(metrics: MetricsFile) -> str:
     """Per class, a row of real photos (when the headline test is on them) above each variant's synthetic examples
     of that class: the first look at whether the renders resemble the photos."""
     head = headline(metrics)
-    real = head[2]["predictions"] if head and head[1] == "real" else []
+    real = head[2].predictions if head and head[1] == "real" else []
     out = []
     for y, name in enumerate(CLASSES):
-        photos = [p for p in real if p["y"] == y]
+        photos = [p for p in real if p.y == y]
         rows = [("real photos", photos[:: max(1, len(photos) // REAL_SHOWN)][:REAL_SHOWN])] if photos else []
-        rows += [(v, [x for x in e.get("examples", []) if x["y"] == y]) for v, e in metrics["variants"].items()]
+        rows += [(v, [x for x in e.examples if x.y == y]) for v, e in metrics.variants.items()]
         out.append(f"<h3>{name}</h3>" + "".join(
-            f"<div class=grid>{''.join(thumb(x['path'], escape(label)) for x in xs)}</div>" for label, xs in rows if xs))
+            f"<div class=grid>{''.join(thumb(x.path, escape(label)) for x in xs)}</div>" for label, xs in rows if xs))
     title = "Synthetic samples beside the real photos" if real else "Synthetic samples"
     return f"<h2>{title}</h2>" + "".join(out)
 
 
-def render_html(metrics: dict, out_dir: Path) -> str:
+def _history(e: Variant) -> list[Epoch] | None:
+    """The training history of a variant's headline test (its real-photo test, else its split); None without."""
+    test = e.real or e.split
+    return test.history if isinstance(test, Experiment) else None
+
+
+def render_html(metrics: MetricsFile, out_dir: Path) -> str:
     """The report page as a string."""
     cms = "".join(
-        _confusion(f"{v} · {'real' if part == 'real' else 'synthetic'} test", r["metrics"]["confusion"]["matrix"])
-        for v, part, r in results(metrics)
+        _confusion(f"{v} · {'real' if part == 'real' else 'synthetic'} test", r.metrics.confusion.matrix)
+        for v, part, r in metrics.results()
     )
-    curves = curves_png({v: (e.get("real") or e.get("split") or {}).get("history") for v, e in metrics["variants"].items()})
+    curves = curves_png({v: _history(e) for v, e in metrics.variants.items()})
     parts = [
         "<!DOCTYPE html><html lang=en><head><meta charset=utf-8>",
         "<meta name=viewport content='width=device-width,initial-scale=1'>",
         f"<title>deformsim report</title><style>{CSS}</style></head><body><main>",
         "<h1>Deformation classifier report</h1>",
-        f"<div class=sub>{escape(str(metrics.get('data_root', '')))} · "
-        f"{escape(str(metrics.get('created', '')))}</div>",
+        f"<div class=sub>{escape(str(metrics.data_root))} · {escape(str(metrics.created))}</div>",
         "".join(f"<div class=warn><b>Warning:</b> {escape(line)}</div>" for line in low_synthetic(metrics)),
         _hero(metrics),
         "<h2>Results by training variant (paper, Table II)</h2>",
@@ -323,7 +316,7 @@ def render_html(metrics: dict, out_dir: Path) -> str:
         _samples(metrics),
         f"<h2>Confusion matrices</h2><div class=cms>{cms}</div>" if cms else "",
         _calibration(metrics),
-        fewshot_section(metrics.get("fewshot")),
+        fewshot_section(metrics.fewshot),
         _gradcams(metrics, out_dir),
         dense_section(metrics, out_dir),
         _plots(metrics, out_dir),
@@ -339,7 +332,7 @@ def render_html(metrics: dict, out_dir: Path) -> str:
     return "\n".join(parts)
 
 
-def write_report(metrics: dict, out_dir: str | Path) -> Path:
+def write_report(metrics: MetricsFile, out_dir: str | Path) -> Path:
     """Write ``out_dir/report.html`` (``metrics.json`` is run_experiments' to write); return its path."""
     out_dir = Path(out_dir)
     path = out_dir / "report.html"

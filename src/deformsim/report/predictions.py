@@ -8,6 +8,7 @@ from pathlib import Path
 
 from deformsim.dataset.images import CLASSES
 from deformsim.evaluate.experiments import review_order
+from deformsim.evaluate.metrics_file import Experiment, Prediction
 from deformsim.report.figures import thumbnail_uri
 
 MAX_THUMBS = 12  # right predictions shown, least confident first
@@ -43,29 +44,29 @@ def wrong_table(wrong: list[dict]) -> str:
             f'{head}</tr>{"".join(rows)}</table></div>')
 
 
-def _card(p: dict, cls: str) -> str:
+def _card(p: Prediction, cls: str) -> str:
     """A prediction as a card: the photo, its true label, P(deformed) and its file name, a link to the full size."""
-    link = photo_link(p["path"])
-    return thumb(p["path"], f'{CLASSES[p["y"]]}<br>P(deformed) = {p["prob"]:.3f}'
-                 f'<div class=sub><a href="{link}">{escape(Path(p["path"]).name)}</a></div>', cls)
+    link = photo_link(p.path)
+    return thumb(p.path, f'{CLASSES[p.y]}<br>P(deformed) = {p.prob:.3f}'
+                 f'<div class=sub><a href="{link}">{escape(Path(p.path).name)}</a></div>', cls)
 
 
-def predictions_section(head: tuple[str, str, dict] | None) -> str:
+def predictions_section(head: tuple[str, str, Experiment] | None) -> str:
     """The predictions of the headline model ``(variant, part, result)``: every wrong one, then the least confident
     right ones, as cards of one size; "" without one."""
     if head is None:
         return ""
     v, part, r = head
-    preds = r["predictions"]
-    thr = r["metrics"]["threshold"]
+    preds = r.predictions
+    thr = r.metrics.threshold
     order = [preds[i] for i in review_order(preds, thr)]  # most confident mistakes, then least confident successes
-    wrong = [p for p in order if (p["prob"] >= thr) != bool(p["y"])]
+    wrong = [p for p in order if (p.prob >= thr) != bool(p.y)]
     right = order[len(wrong):]
     where = "real photographs" if part == "real" else "held-out synthetic images"
     shown = right[:MAX_THUMBS]
     title = f"Right ({len(right)})" + (f": the {len(shown)} least confident" if len(shown) < len(right) else "")
 
-    def grid(items: list[dict], cls: str) -> str:
+    def grid(items: list[Prediction], cls: str) -> str:
         return f'<div class="grid">{"".join(_card(p, cls) for p in items)}</div>' if items else '<p class="note">none</p>'
 
     return (f"<h2>Predictions on {where}</h2><p class=note>Model trained on <b>{escape(v)}</b>; the true label and "

@@ -8,6 +8,7 @@ from html import escape
 import yaml
 
 from deformsim.config import Config
+from deformsim.evaluate.metrics_file import MetricsFile
 
 
 def flatten(tree: dict, prefix: str = "") -> dict:
@@ -45,34 +46,33 @@ def _compositing(record: dict) -> dict:
     return {k: v for k, v in record.items() if k not in ("name", "seed", "backgrounds_digest")}
 
 
-def used_settings(metrics: dict) -> dict:
+def used_settings(metrics: MetricsFile) -> dict:
     """The dataset's config (all but ``train``), each variant's compositing settings and the report's training
     settings, as one nested config."""
-    data = metrics.get("data") or {}
-    used = {k: v for k, v in (data.get("config") or {}).items() if k not in ("train", "composite")}
-    composites = data.get("composite") or {}
-    if len(composites) == 1:
-        used["composite"] = _compositing(next(iter(composites.values())))
-    used["train"] = metrics["settings"]
+    data = metrics.data
+    used = {k: v for k, v in (data.config or {}).items() if k not in ("train", "composite")}
+    if len(data.composite) == 1:
+        used["composite"] = _compositing(next(iter(data.composite.values())))
+    used["train"] = metrics.settings
     return used
 
 
-def settings_section(metrics: dict, extra_rows: list[tuple[str, str]]) -> str:
+def settings_section(metrics: MetricsFile, extra_rows: list[tuple[str, str]]) -> str:
     """The section's HTML: ``extra_rows`` (label, HTML) after the part, spec and version rows, then the settings
     that differ from the defaults."""
-    data = metrics.get("data") or {}
-    obj = (data.get("config") or {}).get("object") or {}
-    inputs = data.get("inputs") or {}
+    data = metrics.data
+    obj = (data.config or {}).get("object") or {}
+    inputs = data.inputs or {}
     part = f"mesh {obj['mesh']}" if obj.get("mesh") else "built-in soda can"
     if inputs.get("mesh"):
         part += f" (sha256 {inputs['mesh'][:16]})"
     spec = obj.get("spec") or "built-in can spec"
     if inputs.get("spec"):
         spec += f" (sha256 {inputs['spec'][:16]})"
-    rows = [("part", escape(part)), ("spec", escape(spec)), ("deformsim", escape(str(metrics.get("version", "?"))))]
+    rows = [("part", escape(part)), ("spec", escape(spec)), ("deformsim", escape(metrics.version or "?"))]
     body = "".join(f"<tr><td>{escape(k)}</td><td>{v}</td></tr>" for k, v in rows + extra_rows)
     changed = non_default(used_settings(metrics), Config().model_dump(mode="json"))
-    composites = data.get("composite") or {}
+    composites = data.composite
     per_variant = "" if len(composites) < 2 else "".join(
         f"<p class=note>composite settings of <b>{escape(v)}</b> that differ from the defaults:</p>"
         f"<pre class=yaml>{escape(yaml_lines(non_default(_compositing(c), Config().composite.model_dump(mode='json'))))}</pre>"

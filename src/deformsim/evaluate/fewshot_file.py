@@ -1,0 +1,60 @@
+"""``bench fewshot``'s ``fewshot.json`` as a typed record (:mod:`deformsim.evaluate.fewshot` writes and reads it; a
+report shows it)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import ConfigDict, Field
+
+from deformsim.schema import StrictModel
+
+CURVES = ("synthetic", "unadapted", "imagenet")
+Share = Annotated[float, Field(ge=0, le=1)]
+Count = Annotated[int, Field(ge=0, le=10**9)]
+
+
+class _File(StrictModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+
+
+class CurveRow(_File):
+    """One k of a curve: the mean scores over its runs, their 95 % intervals, the majority-class share."""
+
+    k: Count
+    runs: Annotated[int, Field(ge=1, le=10**9)]
+    interval: Annotated[str, Field(max_length=20)] | None = None  # what the interval resamples: photos, draws, seeds
+    majority: Share
+    accuracy: Share
+    f1: Share
+    accuracy_interval: tuple[Share, Share]
+    f1_interval: tuple[Share, Share]
+
+
+class Photos(_File):
+    intact: Count
+    deformed: Count
+
+
+class FewshotFile(_File):
+    """``bench fewshot``'s ``fewshot.json``: what the report shows typed exactly; the rest of what it records
+    may be missing (an older file) but has its type."""
+
+    kind: Literal["fewshot"]
+    real_dir: Annotated[str, Field(max_length=4096)]
+    model: Annotated[str, Field(max_length=4096)]
+    majority_baseline: Share
+    photos: Photos
+    draws: Annotated[int, Field(ge=1, le=1000)]
+    seeds: Annotated[int, Field(ge=1, le=1000)]
+    curves: Annotated[dict[Literal[CURVES], Annotated[list[CurveRow], Field(min_length=1)]], Field(min_length=1)]
+    created: str | None = None
+    backbone: str | None = None
+    weights: dict[str, str] | None = None
+    ks: list[Count] | None = None
+    capped: list[Count] | None = None
+    recipe: dict[str, object] | None = None
+    data: str | None = None
+    variant: str | None = None
+    runs: list[dict[str, object]] | None = None
+    seconds: Annotated[float, Field(ge=0)] | None = None
