@@ -1,8 +1,9 @@
 """A worker pool: ``n`` workers, each an object that holds its own state, run jobs in threads or processes.
 
 The results come back to the caller's thread as they finish, so the caller keeps every count without locks. A
-worker's error stops the pool and is raised in the caller; so is Ctrl-C (or SIGTERM raised as KeyboardInterrupt):
-the pool then kills every thread worker at once (its ``kill``) and cancels the jobs not started.
+worker's error stops the pool and is raised in the caller. Leaving the pool's ``with`` block stops it: on an error
+the jobs under way end first; on Ctrl-C (or SIGTERM raised as KeyboardInterrupt) every thread worker is killed at
+once (its ``kill``); jobs not started are dropped.
 """
 
 from __future__ import annotations
@@ -33,10 +34,11 @@ class Stopped(Exception):
 
 
 class Pool(Generic[J, R]):
-    """``workers`` workers, each ``make(slot)`` (slot 0 to workers - 1) made in the thread or process it runs in.
+    """``workers`` workers, each ``make(slot)`` (slot 0 to workers - 1) made in the thread or process it runs in;
+    used as ``with Pool(...) as pool: for result in pool.map(jobs): ...``.
 
     ``processes``: worker processes (``make`` and the jobs pickled; ``setup`` runs first in each, and the process
-    ends with its parent), else threads; one worker runs in the caller. A thread worker may have ``close()``, called
+    ends with its parent; one worker runs in the caller), else threads. A thread worker may have ``close()``, called
     when it is done, and ``kill()``, called instead when the pool stops early.
     """
 
@@ -44,6 +46,27 @@ class Pool(Generic[J, R]):
                  setup: Callable[[], None] | None = None):
         self.make, self.workers, self.processes, self.setup = make, workers, processes, setup
         self.stopping = threading.Event()  # set when the pool stops early: an error or Ctrl-C
+        self._made: list = []
+        self._threads: list[threading.Thread] = []
+        self._executor: ProcessPoolExecutor | None = None
+
+    def __enter__(self) -> Pool[J, R]:
+        return self
+
+    def __exit__(self, kind, exc, tb) -> None:
+        if self._executor is not None:
+            self._executor.shutdown(cancel_futures=True)
+        if kind is not None and issubclass(kind, KeyboardInterrupt):
+            self._kill()
+        elif any(t.is_alive() for t in self._threads):  # an error, or the caller stopped early
+            self.stopping.set()
+            try:
+                for t in self._threads:
+                    while t.is_alive():
+                        t.join(timeout=0.5)  # a timeout, so that Ctrl-C is seen at once
+            except KeyboardInterrupt:
+                self._kill()
+                raise
 
     def map(self, jobs: Iterable[J], chunk: int = 1) -> Iterator[R]:
         """The results of ``jobs``, as they finish (processes take ``chunk`` jobs at a time); thread workers take
@@ -51,21 +74,18 @@ class Pool(Generic[J, R]):
         if self.workers == 1 and self.processes:
             worker = self.make(0)
             return (worker(job) for job in jobs)
-        return self._processes(list(jobs), chunk) if self.processes else self._threads(iter(jobs))
+        return self._processes(list(jobs), chunk) if self.processes else self._run_threads(iter(jobs))
 
     def _processes(self, jobs: list[J], chunk: int) -> Iterator[R]:
         slots = multiprocessing.get_context().Value("i", 0)
-        pool = ProcessPoolExecutor(self.workers, initializer=_start,
-                                   initargs=(self.make, self.setup, slots, os.getpid()))
-        try:
-            futures = [pool.submit(_run_chunk, jobs[i : i + chunk]) for i in range(0, len(jobs), chunk)]
-            for future in as_completed(futures):
-                yield from future.result()
-        finally:
-            pool.shutdown(cancel_futures=True)
+        self._executor = ProcessPoolExecutor(self.workers, initializer=_start,
+                                             initargs=(self.make, self.setup, slots, os.getpid()))
+        futures = [self._executor.submit(_run_chunk, jobs[i : i + chunk]) for i in range(0, len(jobs), chunk)]
+        for future in as_completed(futures):
+            yield from future.result()
 
-    def _threads(self, jobs: Iterator[J]) -> Iterator[R]:
-        made = [self.make(slot) for slot in range(self.workers)]
+    def _run_threads(self, jobs: Iterator[J]) -> Iterator[R]:
+        self._made = [self.make(slot) for slot in range(self.workers)]
         done: queue.Queue = queue.Queue()
         lock = threading.Lock()
 
@@ -88,43 +108,29 @@ class Pool(Generic[J, R]):
                     end()
                 done.put((_END, None))
 
-        threads = [threading.Thread(target=run, args=(w,), daemon=True) for w in made]
-        try:
-            for t in threads:
-                t.start()
-            running = len(threads)
-            while running:
-                try:
-                    result, error = done.get(timeout=0.5)  # a timeout, so that Ctrl-C is seen at once
-                except queue.Empty:
-                    continue
-                if error is not None:
-                    raise error
-                if result is _END:
-                    running -= 1
-                else:
-                    yield result
-        except KeyboardInterrupt:
-            self._kill(made, threads)
-            raise
-        except BaseException:  # an error, or the caller stopped: the jobs under way end first
-            self.stopping.set()
+        self._threads = [threading.Thread(target=run, args=(w,), daemon=True) for w in self._made]
+        for t in self._threads:
+            t.start()
+        running = len(self._threads)
+        while running:
             try:
-                for t in threads:
-                    while t.is_alive():
-                        t.join(timeout=0.5)
-            except KeyboardInterrupt:
-                self._kill(made, threads)
-                raise
-            raise
+                result, error = done.get(timeout=0.5)  # a timeout, so that Ctrl-C is seen at once
+            except queue.Empty:
+                continue
+            if error is not None:
+                raise error
+            if result is _END:
+                running -= 1
+            else:
+                yield result
 
-    def _kill(self, made: list, threads: list[threading.Thread]) -> None:
+    def _kill(self) -> None:
         """Stop now: kill every worker, give the threads 10 s to end, kill again any worker started meanwhile."""
         self.stopping.set()
-        _kill_all(made)
-        for t in threads:
+        _kill_all(self._made)
+        for t in self._threads:
             t.join(timeout=10)
-        _kill_all(made)
+        _kill_all(self._made)
 
 
 def _kill_all(made: list) -> None:

@@ -22,7 +22,6 @@ from __future__ import annotations
 import math
 import os
 import re
-from contextlib import closing
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import NamedTuple
@@ -196,9 +195,9 @@ def _run(jobs: list[Job], plan: Plan, workers: int, progress: bool) -> tuple[lis
     (path -> why)."""
     size = max(1, min(32, len(jobs) // (workers * 4) or 1))
     rows, bad = [], {}
-    pool = Pool(plan.worker, workers, processes=True, setup=_one_thread)
-    with progress_bar(len(jobs), "composite", progress) as bar, closing(pool.map(jobs, chunk=size)) as results:
-        for done in results:
+    with progress_bar(len(jobs), "composite", progress) as bar, \
+            Pool(plan.worker, workers, processes=True, setup=_one_thread) as pool:
+        for done in pool.map(jobs, chunk=size):
             rows.append(done.row)
             bad.update(done.skipped)
             bar.update(1)
