@@ -75,6 +75,21 @@ def test_each_run_scores_the_photos_it_did_not_adapt_on(tiny, tmp_path):
 
 
 @pytest.mark.torch
+def test_the_same_inputs_give_the_same_fewshot_json_and_plot(tiny, tmp_path):
+    from deformsim.learn.finetune import Recipe
+
+    model, real = tiny
+    written = []
+    for name in ("a", "b"):
+        run_fewshot(real, model, tmp_path / name, (0, 1, 2), draws=2, seeds=2, recipe=Recipe(**QUICK), progress=False)
+        results = json.loads((tmp_path / name / "fewshot.json").read_text())
+        del results["created"], results["seconds"]  # the clock's
+        written.append((json.dumps(results), (tmp_path / name / "fewshot.png").read_bytes()))
+    assert written[0] == written[1]
+    assert len(json.loads(written[0][0])["runs"]) == 1 + 2 * (2 + 1 + 2) * 2  # k 0 once; per draw 2 + 1 + 2 runs
+
+
+@pytest.mark.torch
 def test_a_model_adapted_on_the_folder_is_refused(tiny, tmp_path):
     from deformsim.learn.finetune import Recipe, finetune
 

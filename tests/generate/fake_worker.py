@@ -2,7 +2,8 @@
 
 ``FAKE_WORKER_MODE`` picks what a render does: ``ok`` writes flat PNGs (their colour from the sample index and
 the mesh file's first byte), ``slow`` leaves a partial render file and sleeps, ``full`` fails as Blender does on
-a full disk (the reason in the log, an unreadable image in the reply).
+a full disk (the reason in the log, an unreadable image in the reply), ``flaky`` fails sample 1 once and sample 2
+every time, ``nostart`` exits before it is ready.
 """
 
 import json
@@ -26,6 +27,9 @@ def main() -> int:
         if msg.get("quit"):
             return 0
         if "setup" in msg:
+            if mode == "nostart":
+                print("Error: no GPU here", file=sys.stderr, flush=True)
+                return 1
             setup = msg["setup"]
             proto.write(json.dumps({"ready": True, "device": "fake", "camera_scale": 1.0, "pid": os.getpid()}) + "\n")
             continue
@@ -38,6 +42,11 @@ def main() -> int:
             tmp.parent.mkdir(parents=True, exist_ok=True)
             tmp.write_bytes(b"partial")
             time.sleep(120)
+        first_try = out / f".tried-{p['index']}"  # beside the dataset's files, counted across workers
+        if mode == "flaky" and (p["index"] == 2 or (p["index"] == 1 and not first_try.exists())):
+            first_try.touch()
+            proto.write(json.dumps({"error": p["index"], "message": f"flaky sample {p['index']}"}) + "\n")
+            continue
         if mode == "full":
             print("Error: writing render result: No space left on device", file=sys.stderr, flush=True)
             proto.write(json.dumps({"error": p["index"], "message": "UnidentifiedImageError: cannot identify image "

@@ -6,6 +6,7 @@ Renders come from fake workers (tests/generate/fakes.py): the driver's behaviour
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import signal
@@ -135,6 +136,22 @@ def test_a_full_disk_stops_with_one_line(monkeypatch, tmp_path):
     assert proc.returncode == 1, err
     assert "No space left on device" in err and "Traceback" not in err and "UnidentifiedImageError" not in err
     assert len([line for line in err.splitlines() if "error" in line]) == 1
+
+
+@pytest.mark.parametrize("workers", [1, 3])
+def test_a_failed_sample_is_retried_and_one_that_keeps_failing_is_recorded(monkeypatch, tmp_path, workers):
+    use_fakes(monkeypatch, mode="flaky")
+    out = tmp_path / "D"
+    result = generate(cfg_for(n=16, **{"generate.max_retries": 2, "generate.workers": workers}), out, progress=False)
+    assert result.failed == {2: "flaky sample 2"} and result.rendered == 3 and result.device == "fake"
+    assert json.loads((out / "failures.json").read_text()) == {"2": "flaky sample 2"}
+    assert sorted(read_manifest(out)["sample"].unique()) == [0, 1, 3]
+
+
+def test_workers_that_cannot_start_stop_the_run_with_one_line(monkeypatch, tmp_path):
+    use_fakes(monkeypatch, mode="nostart")
+    with pytest.raises(ResourceError, match=r"^worker failed to start: .* \(see .*logs\)$"):
+        generate(cfg_for(), tmp_path / "D", progress=False)
 
 
 def test_flag_values_are_reported_as_flags(tmp_path):

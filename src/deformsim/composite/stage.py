@@ -22,9 +22,9 @@ from __future__ import annotations
 import math
 import os
 import re
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -52,12 +52,12 @@ from deformsim.dataset.variants import VARIANT_MANIFEST
 from deformsim.errors import UserError
 from deformsim.log import progress_bar
 from deformsim.outputs import replacing
-from deformsim.parallel import die_with_parent, worker_count
+from deformsim.parallel import worker_count
+from deformsim.pool import Pool
 from deformsim.sampling.streams import stable_int, stream
 from deformsim.schema import MAX_SEED, shown
 
 _NAME = re.compile(VARIANT_NAME)
-_STATE: dict = {}
 
 
 SETTINGS_FILE = "composite.json"
@@ -104,15 +104,14 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
     twins = twin_ids(manifest)
     if photos and cfg.balance_backgrounds:
         first = balanced_photos(manifest["id"].tolist(), manifest["y"].tolist(), len(photos), seed)
-        jobs = [(*job, first[twins.get(job[0], job[0])]) for job in jobs]  # a twin's photo is its deformed twin's
+        jobs = [replace(job, photo=first[twins.get(job.iid, job.iid)]) for job in jobs]  # a twin's photo: its twin's
 
     final = layout.variant_dir(name)
     with replacing(final) as tmp:
         (tmp / "images").mkdir()
-        state = {"cfg": cfg.model_dump(), "seed": seed, "photos": photos, "out": str(tmp / "images"),
-                 "prefix": f"variants/{name}/images", "maps_out": str(tmp), "maps_prefix": f"variants/{name}",
-                 "twins": twins}
-        rows, bad = _run(jobs, state, worker_count(len(jobs), cfg.workers, most=8, jobs_each=16), progress)
+        plan = Plan(cfg, seed, photos, str(tmp / "images"), f"variants/{name}/images", str(tmp), f"variants/{name}",
+                    twins)
+        rows, bad = _run(jobs, plan, worker_count(len(jobs), cfg.workers, most=8, jobs_each=16), progress)
         for path, reason in sorted(bad.items()):
             warn_skipped(Path(path), reason)
         if photos:
@@ -137,11 +136,6 @@ def twin_ids(manifest: pd.DataFrame) -> dict[str, str]:
     return {iid: twin for iid, twin in twins.items() if twin != iid}
 
 
-def _draws_of(iid: str) -> str:
-    """The image id whose draws image ``iid`` makes (:func:`twin_ids`)."""
-    return _STATE.get("twins", {}).get(iid, iid)
-
-
 def balanced_photos(ids: list[str], labels: list[int], n_photos: int, seed: int) -> dict[str, int]:
     """Image id -> photo index, each photo used equally often (to within one) behind every class."""
     rng = stream("balance", seed)
@@ -154,11 +148,24 @@ def balanced_photos(ids: list[str], labels: list[int], n_photos: int, seed: int)
     return out
 
 
+@dataclass(frozen=True)
+class Job:
+    """One image to composite: its id, source image, exact-alpha render, dense maps, shadow map and rendered surface
+    scene (each None when the dataset has none), and the background photo assigned to it (index; None: drawn)."""
+
+    iid: str
+    src: str
+    exact: str | None = None
+    maps: dict[str, str] | None = None
+    shadow: str | None = None
+    scene: str | None = None
+    photo: int | None = None
+
+
 def _jobs(layout: Layout, manifest: pd.DataFrame, source: str, shadows: bool = False,
-          surfaces: bool = False) -> list[tuple]:
-    """``(id, source image, exact-alpha render or None, dense map paths or None, shadow map or None, rendered surface
-    scene or None)`` per image, all checked to exist; ``shadows``: use the shadow maps where the dataset has them;
-    ``surfaces``: the dataset must have surface scenes (``render.surface``)."""
+          surfaces: bool = False) -> list[Job]:
+    """A :class:`Job` per image, its files all checked to exist; ``shadows``: use the shadow maps where the dataset has
+    them; ``surfaces``: the dataset must have surface scenes (``render.surface``)."""
     if manifest.empty:
         raise UserError(f"dataset {layout.root} has no images")
     missing = {"id", "y", source} - set(manifest.columns)
@@ -190,50 +197,157 @@ def _jobs(layout: Layout, manifest: pd.DataFrame, source: str, shadows: bool = F
         if scene is not None and not (scene.is_file() and exact is not None and exact.is_file()):
             raise UserError(f"surface scene or its rgba render missing: {scene} (is the dataset at {layout.root} "
                             "complete?)")
-        jobs.append((row.id, str(src), str(exact) if exact is not None and exact.is_file() else None,
-                     {k: str(p) for k, p in maps.items()} if maps else None, str(shadow) if shadow else None,
-                     str(scene) if scene else None))
+        jobs.append(Job(row.id, str(src), str(exact) if exact is not None and exact.is_file() else None,
+                        {k: str(p) for k, p in maps.items()} if maps else None, str(shadow) if shadow else None,
+                        str(scene) if scene else None))
     return jobs
 
 
-def _run(jobs: list, state: dict, workers: int, progress: bool) -> tuple[list[dict], dict[str, str]]:
+def _run(jobs: list[Job], plan: Plan, workers: int, progress: bool) -> tuple[list[dict], dict[str, str]]:
+    """The manifest rows of ``jobs`` composited by ``workers`` processes, and the photos that could not be read
+    (path -> why)."""
     size = max(1, min(32, len(jobs) // (workers * 4) or 1))
-    chunks = [jobs[i : i + size] for i in range(0, len(jobs), size)]
     rows, bad = [], {}
-    with progress_bar(len(jobs), "composite", progress) as bar:
-        if workers == 1:
-            _init(state)
-            results = (_chunk(c) for c in chunks)
-            pool = None
-        else:
-            pool = ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(state, os.getpid()))
-            results = (f.result() for f in as_completed([pool.submit(_chunk, c) for c in chunks]))
-        try:
-            for chunk_rows, chunk_bad in results:
-                rows.extend(chunk_rows)
-                bad.update(chunk_bad)
-                bar.update(len(chunk_rows))
-        finally:
-            if pool is not None:
-                pool.shutdown(cancel_futures=True)
+    with progress_bar(len(jobs), "composite", progress) as bar, \
+            Pool(plan.worker, workers, processes=True, setup=_one_thread) as pool:
+        for done in pool.map(jobs, chunk=size):
+            rows.append(done.row)
+            bad.update(done.skipped)
+            bar.update(1)
     return rows, bad
 
 
-def _init(state: dict) -> None:
-    _STATE.clear()
-    _STATE.update(state, cfg=CompositeConfig.model_validate(state["cfg"]), bad={})
-
-
-def _init_worker(state: dict, parent: int) -> None:
-    die_with_parent(parent)
-    _init(state)
+def _one_thread() -> None:
     cv2.setNumThreads(1)  # the pool is the parallelism
 
 
-def _chunk(jobs: list) -> tuple[list[dict], dict[str, str]]:
-    _STATE["bad"] = {}
-    return [composite_one(*job) for job in jobs], _STATE["bad"]
+@dataclass(frozen=True)
+class Plan:
+    """What every worker composites with: the settings, seed and photos, where the images (``out``, manifest paths
+    ``prefix``) and dense maps go, and each image's twin whose draws it makes (:func:`twin_ids`)."""
 
+    cfg: CompositeConfig
+    seed: int
+    photos: list[str]
+    out: str
+    prefix: str
+    maps_out: str
+    maps_prefix: str
+    twins: dict[str, str]
+
+    def worker(self, slot: int) -> Compositor:
+        return Compositor(self)
+
+
+class Outcome(NamedTuple):
+    """One composited image: its manifest row and the photos it could not read."""
+
+    row: dict  # the image's manifest row
+    skipped: dict[str, str]  # background photos that could not be read: path -> why
+
+
+@dataclass
+class Compositor:
+    """One worker: composites a :class:`Job` at a time after :class:`Plan`."""
+
+    plan: Plan
+    bad: dict[str, str] = field(default_factory=dict)  # the photos the current job could not read
+
+    def __call__(self, job: Job) -> Outcome:
+        """Matte, background and composite one image; writes it (and its moved maps). ``job.shadow``: the part's
+        shadow map (alpha matte only); ``job.scene``: the rendered surface scene, shown whole instead with
+        probability ``composite.surface``."""
+        self.bad = {}
+        iid, src, exact, maps, shadow, scene, photo = (job.iid, job.src, job.exact, job.maps, job.shadow, job.scene,
+                                                       job.photo)
+        draws = self.plan.twins.get(iid, iid)
+        cfg, rng = self.plan.cfg, stream("image", self.plan.seed, stable_int(draws))
+        if scene is not None and use_surface(self.plan.seed, draws, cfg.surface):
+            return Outcome(self._surface_one(iid, scene, exact, maps, rng, cfg), self.bad)
+        if cfg.matte == "alpha":
+            alpha, fg = alpha_matte(_read(src, cv2.IMREAD_UNCHANGED))
+            iou = float("nan")
+        else:
+            key = chroma_matte if cfg.matte == "chroma" else inrange_matte
+            alpha, fg = key(_read(src, cv2.IMREAD_COLOR), cfg)
+            iou = binary_iou(alpha, _read(exact, cv2.IMREAD_UNCHANGED)[..., 3] / 255.0) if exact else float("nan")
+        h, w = alpha.shape
+        dense = read_maps(maps, (h, w)) if maps else None
+        shade = read_shadow(shadow, (h, w)) if shadow else None
+        bg, info = self._background(rng, cfg, h, w, photo)
+        fg, alpha, shade = self._move_part(iid, alpha, [fg, alpha, shade], dense, rng, cfg, info)
+        alpha = np.clip(alpha, 0, 1)
+        shade = np.clip(shade, 0, 1) if shade is not None else None
+        bg = bg.astype(np.float32)
+        if shade is not None:
+            strength = shadow_strength(self.plan.seed, draws, cfg.shadow_strength)
+            bg = bg * (1.0 - strength * shade)[..., None]
+            info["shadow_strength"] = strength
+        out = fg + (1.0 - alpha)[..., None] * bg
+        return Outcome(self._finish(iid, out, rng, cfg, {"matte": cfg.matte, **info}, iou), self.bad)
+
+    def _surface_one(self, iid: str, scene: str, exact: str, maps: dict[str, str] | None, rng: np.random.Generator,
+                     cfg: CompositeConfig) -> dict:
+        """One image that shows the rendered surface scene whole: framed around the part (its box from the exact
+        alpha), flipped and given camera effects like a composite, with no matte and no background."""
+        img = _read(scene, cv2.IMREAD_COLOR).astype(np.float32)
+        alpha = _read(exact, cv2.IMREAD_UNCHANGED)[..., 3].astype(np.float32) / 255.0
+        h, w = alpha.shape
+        if img.shape[:2] != (h, w):
+            raise UserError(f"surface scene {scene} is {img.shape[1]}x{img.shape[0]}, its render {w}x{h}")
+        dense = read_maps(maps, (h, w)) if maps else None
+        info: dict = {"background": SURFACE_KIND}
+        (img,) = self._move_part(iid, alpha, [img], dense, rng, cfg, info)
+        return self._finish(iid, img, rng, cfg, {"matte": "none", **info}, float("nan"))
+
+    def _move_part(self, iid: str, alpha: np.ndarray, layers: list, dense: dict | None, rng: np.random.Generator,
+                   cfg: CompositeConfig, info: dict) -> list:
+        """``layers`` (images or None) framed around the part whose alpha is ``alpha`` (``composite.object_fill``) and
+        mirrored with it (``flip_part``); the dense maps are moved alike and written; both are recorded in ``info``."""
+        m = None
+        if cfg.object_fill is not None:
+            m, frame = frame_matrix(alpha, cfg.object_fill, cfg.fill_offset, rng)
+            layers = [warp(x, m) if x is not None else None for x in layers]
+            info.update(frame)
+        flip = part_flip(self.plan.seed, self.plan.twins.get(iid, iid), cfg.flip_part)
+        if flip:
+            layers = [x[:, ::-1] if x is not None else None for x in layers]
+        info["part_flip"] = flip
+        if dense:
+            info.update(write_maps(move_maps(dense, m, flip), self.plan.maps_out, self.plan.maps_prefix, iid))
+        return layers
+
+    def _finish(self, iid: str, img: np.ndarray, rng: np.random.Generator, cfg: CompositeConfig, info: dict,
+                iou: float) -> dict:
+        """Round ``img`` to 8 bits, add the camera effects, write it; return its manifest row (``iou``: the matte's)."""
+        out = np.clip(np.rint(img), 0, 255).astype(np.uint8)
+        if cfg.effects is not None:
+            out, fx = apply_effects(out, cfg.effects, rng)
+            info.update(fx)
+        if not cv2.imwrite(os.path.join(self.plan.out, f"{iid}.png"), cv2.cvtColor(out, cv2.COLOR_RGB2BGR)):
+            raise OSError(f"cannot write composite of {iid} to {self.plan.out}")
+        return {"id": iid, "image": f"{self.plan.prefix}/{iid}.png", **info, "matte_iou": iou}
+
+    def _background(self, rng: np.random.Generator, cfg: CompositeConfig, h: int, w: int,
+                    photo_index: int | None) -> tuple[np.ndarray, dict]:
+        photos = self.plan.photos
+        if not photos:
+            kind, sub = PROCEDURAL_KINDS[int(rng.integers(len(PROCEDURAL_KINDS)))], int(rng.integers(2**31))
+            info = {"background": f"procedural:{kind}:{sub}", "bg_x": 0.0, "bg_y": 0.0, "bg_scale": 1.0, "bg_flip": False}
+            return procedural(kind, sub, h, w), info
+        first = int(rng.integers(len(photos)))  # drawn even when assigned, so later draws stay where they were
+        first = first if photo_index is None else photo_index
+        smax = cfg.scale_jitter[1]
+        for k in range(len(photos)):  # a corrupt photo deterministically falls through to the next one
+            path = photos[(first + k) % len(photos)]
+            try:
+                photo = load_photo(path, math.ceil(w * smax), math.ceil(h * smax))
+            except Exception as exc:  # PIL raises many types for corrupt data
+                self.bad[path] = str(exc) or type(exc).__name__
+                continue
+            bg, info = fit(photo, h, w, rng, cfg.scale_jitter, cfg.flip)
+            return bg, {"background": path, **info}
+        raise UserError("no background photo could be decoded: " + ", ".join(sorted(self.bad)))
 
 def _read(path: str, flags: int) -> np.ndarray:
     """An 8-bit RGB image (``cv2.IMREAD_COLOR``) or the render's 8-bit RGBA (``cv2.IMREAD_UNCHANGED``)."""
@@ -246,83 +360,6 @@ def _read(path: str, flags: int) -> np.ndarray:
         what = "an 8-bit RGBA render" if channels == 4 else "an 8-bit image"
         raise UserError(f"cannot read image {path} as {what}")
     return cv2.cvtColor(img, cv2.COLOR_BGRA2RGBA if channels == 4 else cv2.COLOR_BGR2RGB)
-
-
-def composite_one(iid: str, src: str, exact: str | None, maps: dict[str, str] | None = None,
-                  shadow: str | None = None, scene: str | None = None, photo: int | None = None) -> dict:
-    """Matte, background and composite one image (worker side); writes it (and its moved maps) and returns its
-    manifest row. ``shadow``: the part's shadow map (alpha matte only); ``scene``: the rendered surface scene,
-    shown whole instead with probability ``composite.surface``."""
-    draws = _draws_of(iid)
-    cfg, rng = _STATE["cfg"], stream("image", _STATE["seed"], stable_int(draws))
-    if scene is not None and use_surface(_STATE["seed"], draws, cfg.surface):
-        return _surface_one(iid, scene, exact, maps, rng, cfg)
-    if cfg.matte == "alpha":
-        alpha, fg = alpha_matte(_read(src, cv2.IMREAD_UNCHANGED))
-        iou = float("nan")
-    else:
-        key = chroma_matte if cfg.matte == "chroma" else inrange_matte
-        alpha, fg = key(_read(src, cv2.IMREAD_COLOR), cfg)
-        iou = binary_iou(alpha, _read(exact, cv2.IMREAD_UNCHANGED)[..., 3] / 255.0) if exact else float("nan")
-    h, w = alpha.shape
-    dense = read_maps(maps, (h, w)) if maps else None
-    shade = read_shadow(shadow, (h, w)) if shadow else None
-    bg, info = _background(rng, cfg, h, w, photo)
-    fg, alpha, shade = _move_part(iid, alpha, [fg, alpha, shade], dense, rng, cfg, info)
-    alpha = np.clip(alpha, 0, 1)
-    shade = np.clip(shade, 0, 1) if shade is not None else None
-    bg = bg.astype(np.float32)
-    if shade is not None:
-        strength = shadow_strength(_STATE["seed"], draws, cfg.shadow_strength)
-        bg = bg * (1.0 - strength * shade)[..., None]
-        info["shadow_strength"] = strength
-    out = fg + (1.0 - alpha)[..., None] * bg
-    return _finish(iid, out, rng, cfg, {"matte": cfg.matte, **info}, iou)
-
-
-def _surface_one(iid: str, scene: str, exact: str, maps: dict[str, str] | None, rng: np.random.Generator,
-                 cfg: CompositeConfig) -> dict:
-    """One image that shows the rendered surface scene whole: framed around the part (its box from the exact
-    alpha), flipped and given camera effects like a composite, with no matte and no background."""
-    img = _read(scene, cv2.IMREAD_COLOR).astype(np.float32)
-    alpha = _read(exact, cv2.IMREAD_UNCHANGED)[..., 3].astype(np.float32) / 255.0
-    h, w = alpha.shape
-    if img.shape[:2] != (h, w):
-        raise UserError(f"surface scene {scene} is {img.shape[1]}x{img.shape[0]}, its render {w}x{h}")
-    dense = read_maps(maps, (h, w)) if maps else None
-    info: dict = {"background": SURFACE_KIND}
-    (img,) = _move_part(iid, alpha, [img], dense, rng, cfg, info)
-    return _finish(iid, img, rng, cfg, {"matte": "none", **info}, float("nan"))
-
-
-def _move_part(iid: str, alpha: np.ndarray, layers: list, dense: dict | None, rng: np.random.Generator,
-               cfg: CompositeConfig, info: dict) -> list:
-    """``layers`` (images or None) framed around the part whose alpha is ``alpha`` (``composite.object_fill``) and
-    mirrored with it (``flip_part``); the dense maps are moved alike and written; both are recorded in ``info``."""
-    m = None
-    if cfg.object_fill is not None:
-        m, frame = frame_matrix(alpha, cfg.object_fill, cfg.fill_offset, rng)
-        layers = [warp(x, m) if x is not None else None for x in layers]
-        info.update(frame)
-    flip = part_flip(_STATE["seed"], _draws_of(iid), cfg.flip_part)
-    if flip:
-        layers = [x[:, ::-1] if x is not None else None for x in layers]
-    info["part_flip"] = flip
-    if dense:
-        info.update(write_maps(move_maps(dense, m, flip), _STATE["maps_out"], _STATE["maps_prefix"], iid))
-    return layers
-
-
-def _finish(iid: str, img: np.ndarray, rng: np.random.Generator, cfg: CompositeConfig, info: dict,
-            iou: float) -> dict:
-    """Round ``img`` to 8 bits, add the camera effects, write it; return its manifest row (``iou``: the matte's)."""
-    out = np.clip(np.rint(img), 0, 255).astype(np.uint8)
-    if cfg.effects is not None:
-        out, fx = apply_effects(out, cfg.effects, rng)
-        info.update(fx)
-    if not cv2.imwrite(os.path.join(_STATE["out"], f"{iid}.png"), cv2.cvtColor(out, cv2.COLOR_RGB2BGR)):
-        raise OSError(f"cannot write composite of {iid} to {_STATE['out']}")
-    return {"id": iid, "image": f"{_STATE['prefix']}/{iid}.png", **info, "matte_iou": iou}
 
 
 def use_surface(seed: int, iid: str, p: float) -> bool:
@@ -348,26 +385,3 @@ def read_shadow(path: str, shape: tuple[int, int]) -> np.ndarray:
     if img.shape != shape:
         raise UserError(f"shadow map {path} is {img.shape[1]}x{img.shape[0]}, its render {shape[1]}x{shape[0]}")
     return img.astype(np.float32) / 255.0
-
-
-def _background(rng: np.random.Generator, cfg: CompositeConfig, h: int, w: int,
-                photo_index: int | None) -> tuple[np.ndarray, dict]:
-    photos = _STATE["photos"]
-    if not photos:
-        kind, sub = PROCEDURAL_KINDS[int(rng.integers(len(PROCEDURAL_KINDS)))], int(rng.integers(2**31))
-        info = {"background": f"procedural:{kind}:{sub}", "bg_x": 0.0, "bg_y": 0.0, "bg_scale": 1.0, "bg_flip": False}
-        return procedural(kind, sub, h, w), info
-    first = int(rng.integers(len(photos)))  # drawn even when assigned, so later draws stay where they were
-    first = first if photo_index is None else photo_index
-    smax = cfg.scale_jitter[1]
-    for k in range(len(photos)):  # a corrupt photo deterministically falls through to the next one
-        path = photos[(first + k) % len(photos)]
-        try:
-            photo = load_photo(path, math.ceil(w * smax), math.ceil(h * smax))
-        except Exception as exc:  # PIL raises many types for corrupt data
-            _STATE["bad"][path] = str(exc) or type(exc).__name__
-            continue
-        bg, info = fit(photo, h, w, rng, cfg.scale_jitter, cfg.flip)
-        return bg, {"background": path, **info}
-    raise UserError("no background photo could be decoded: " + ", ".join(sorted(_STATE["bad"])))
-

@@ -2,8 +2,8 @@
 
 For each k, ``draws`` draws (a numpy Generator seeded by k and the draw) of k photos of each class from one
 labelled folder; for each draw and each of ``seeds`` training seeds, a model adapts on those photos and is scored
-on the remaining photos of the folder: never one of the k, nor a copy of one (photos are told apart by content;
-asserted). Two curves, on the same draws:
+on the remaining photos of the folder: never one of the k, nor a copy of one (photos are told apart by content:
+the folder's copies count once). Two curves, on the same draws:
 
 - ``synthetic``: the trained model, adapted (:func:`deformsim.learn.finetune.adapt`) at the recipe's small
   learning rate, with the synthetic images of ``data`` mixed in when given; k = 0 is the model as it is.
@@ -25,6 +25,7 @@ where real labels train anything, and only inside this cross-validation.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -37,6 +38,9 @@ from deformsim.evaluate.fewshot_file import CURVES, CurveRow, FewshotFile
 from deformsim.log import get_logger
 
 if TYPE_CHECKING:
+    import pandas as pd
+
+    from deformsim.config import TrainConfig
     from deformsim.learn.finetune import Recipe
 
 log = get_logger(__name__)
@@ -115,19 +119,51 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
                 variant: str | None = None, progress: bool = True) -> dict:
     """Both curves (or those in ``curves``) on the labelled photos of ``real`` for the trained ``model``; written
     to ``out/fewshot.json`` and ``out/fewshot.png``. Every input is checked before any work."""
-    import torch
-
-    from deformsim.dataset.tables import load_table
-    from deformsim.evaluate.metrics import compute_metrics
-    from deformsim.learn import checkpoint
-    from deformsim.learn.device import pick_device, set_threads
-    from deformsim.learn.finetune import Recipe, adapt, check_unseen, part_inputs, part_logits, photo_views
-    from deformsim.learn.models import build
-    from deformsim.outputs import check_apart, check_folder_target, check_outside
+    from deformsim.learn.finetune import Recipe
     from deformsim.report.figures import fewshot_png
 
     start = time.perf_counter()
     recipe = recipe or Recipe(part="head")
+    inputs = _validate(real, model, out, ks, draws, seeds, curves, data, variant)
+    bench = _Bench.prepare(inputs, recipe, curves, progress)
+    results = _summarise(inputs, bench, _loop(bench, inputs))
+    results["seconds"] = time.perf_counter() - start
+    write_json(inputs.out / "fewshot.json", results)
+    curves = {c: [CurveRow.model_validate(r, strict=False) for r in rows] for c, rows in results["curves"].items()}
+    write_bytes(inputs.out / "fewshot.png", fewshot_png(curves, TITLES))
+    return results
+
+
+@dataclass
+class _Inputs:
+    """What :func:`_validate` checked: the output folder, the model (its checkpoint, file and config), the photos
+    (one per content) and their labels, the k values (``capped``: those asked beyond the photos), the draws and
+    seeds, and the synthetic images to mix in (None: none; ``data`` and ``variant`` as given)."""
+
+    real: Path
+    out: Path
+    ckpt: dict
+    path: Path
+    cfg: TrainConfig
+    table: pd.DataFrame
+    y: np.ndarray
+    ks: list[int]
+    capped: list[int]
+    draws: int
+    seeds: int
+    synthetic: pd.DataFrame | None
+    data: Path | None
+    variant: str | None
+
+
+def _validate(real: Path, model: Path, out: Path, ks: tuple[int, ...], draws: int, seeds: int,
+              curves: tuple[str, ...], data: Path | None, variant: str | None) -> _Inputs:
+    """Every input checked (one line naming the bad value otherwise), the model and the photos read."""
+    from deformsim.dataset.tables import load_table
+    from deformsim.learn import checkpoint
+    from deformsim.learn.finetune import check_unseen
+    from deformsim.outputs import check_apart, check_folder_target, check_outside
+
     bad = [c for c in curves if c not in CURVES]
     if bad or not curves:
         raise UserError(f"--curves: expected some of {', '.join(CURVES)}, got {', '.join(bad) or 'none'}")
@@ -158,90 +194,149 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
     if variant is not None and data is None:
         raise UserError(f"--variant {variant} needs --data (the synthetic images to mix in)")
     synthetic = load_table(data, variant, cfg.variants[0]) if data is not None else None
+    return _Inputs(real, out, ckpt, path, cfg, table, y, ks, capped, draws, seeds, synthetic, data, variant)
 
-    set_threads()
-    device = pick_device(cfg.device)
-    trained, _ = checkpoint.restore(ckpt, path)
-    models, weights = {}, {}
-    for curve in ("synthetic", "unadapted"):
-        if curve in curves:
-            models[curve], weights[curve] = trained.to(device), ckpt.get("weights", "")
-    if "imagenet" in curves:
-        fresh, weights["imagenet"] = build(cfg.model_copy(update={"feature_norm": False}))
-        models["imagenet"] = fresh.to(device)
-    paths = list(table["path"])
-    views = photo_views(trained, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress, cfg.crop)
-    inputs = {c: part_inputs(m, views, recipe.part, cfg.batch_size) for c, m in models.items()}
-    scored = {c: [x[0]] for c, x in inputs.items()}  # what is scored: the plain image, and its mirror with tta_flip
-    if cfg.tta_flip:
+
+@dataclass
+class _Bench:
+    """The models of the curves, on ``device``, and what they train on and score: every photo's augmented views
+    through each model's frozen part (``inputs``), what is scored (the plain photo, and its mirror with
+    ``tta_flip``), the part each run trains and its starting weights, the synthetic images to mix in (or None) and
+    each curve's learning rate."""
+
+    cfg: TrainConfig
+    recipe: Recipe
+    device: object
+    models: dict
+    weights: dict[str, str]
+    inputs: dict
+    scored: dict
+    trains: dict
+    starts: dict
+    mix: tuple | None
+    labels: object
+    lrs: dict[str, float]
+
+    @classmethod
+    def prepare(cls, inputs: _Inputs, recipe: Recipe, curves: tuple[str, ...], progress: bool) -> _Bench:
+        import torch
+
+        from deformsim.learn import checkpoint
+        from deformsim.learn.device import pick_device, set_threads
         from deformsim.learn.features import cached_stem
+        from deformsim.learn.finetune import part_inputs, photo_views
+        from deformsim.learn.models import build
 
-        mirrored = cached_stem(trained, paths, cfg.image_size, cfg.batch_size, progress, cfg.crop, True)
-        for c, m in models.items():
-            scored[c].append(part_inputs(m, mirrored, recipe.part, cfg.batch_size))
-    trains = {c: m.head if recipe.part == "head" else m for c, m in models.items()}  # reset before each run
-    starts = {c: {k: v.clone() for k, v in m.state_dict().items()} for c, m in trains.items()}
-    mix = None
-    if synthetic is not None and "synthetic" in models:
-        from deformsim.learn.features import cached_stem
+        cfg, ckpt = inputs.cfg, inputs.ckpt
+        set_threads()
+        device = pick_device(cfg.device)
+        trained, _ = checkpoint.restore(ckpt, inputs.path)
+        models, weights = {}, {}
+        for curve in ("synthetic", "unadapted"):
+            if curve in curves:
+                models[curve], weights[curve] = trained.to(device), ckpt.get("weights", "")
+        if "imagenet" in curves:
+            fresh, weights["imagenet"] = build(cfg.model_copy(update={"feature_norm": False}))
+            models["imagenet"] = fresh.to(device)
+        paths = list(inputs.table["path"])
+        views = photo_views(trained, paths, cfg.image_size, recipe.views, recipe.seed, cfg.batch_size, progress, cfg.crop)
+        parts = {c: part_inputs(m, views, recipe.part, cfg.batch_size) for c, m in models.items()}
+        scored = {c: [x[0]] for c, x in parts.items()}  # what is scored: the plain image, and its mirror with tta_flip
+        if cfg.tta_flip:
+            mirrored = cached_stem(trained, paths, cfg.image_size, cfg.batch_size, progress, cfg.crop, True)
+            for c, m in models.items():
+                scored[c].append(part_inputs(m, mirrored, recipe.part, cfg.batch_size))
+        trains = {c: m.head if recipe.part == "head" else m for c, m in models.items()}  # reset before each run
+        starts = {c: {k: v.clone() for k, v in m.state_dict().items()} for c, m in trains.items()}
+        mix = None
+        if inputs.synthetic is not None and "synthetic" in models:
+            stems = cached_stem(trained, list(inputs.synthetic["path"]), cfg.image_size, cfg.batch_size, progress)
+            mix = (part_inputs(trained, stems, recipe.part, cfg.batch_size),
+                   torch.tensor(inputs.synthetic["y"].to_numpy()))
+        return cls(cfg, recipe, device, models, weights, parts, scored, trains, starts, mix, torch.tensor(inputs.y),
+                   {"synthetic": recipe.lr, "imagenet": cfg.lr})
 
-        stems = cached_stem(trained, list(synthetic["path"]), cfg.image_size, cfg.batch_size, progress)
-        mix = (part_inputs(trained, stems, recipe.part, cfg.batch_size), torch.tensor(synthetic["y"].to_numpy()))
-    labels = torch.tensor(y)
-    lrs = {"synthetic": recipe.lr, "imagenet": cfg.lr}
+    def run(self, curve: str, k: int, seed: int, chosen: np.ndarray, rest: np.ndarray, y: np.ndarray) -> dict:
+        """Train ``curve``'s model afresh on the photos ``chosen`` (k per class; with k = 0 or unadapted, it trains
+        nothing) with training seed ``seed``; its metrics on the photos ``rest``."""
+        import torch
 
-    def score(curve: str, rows: np.ndarray) -> dict:
-        net, pick = models[curve].eval(), torch.as_tensor(rows, dtype=torch.long)
+        from deformsim.learn.finetune import Recipe, adapt
+
+        net = self.models[curve]
+        self.trains[curve].load_state_dict(self.starts[curve])
+        if k and curve != "unadapted":
+            r = self.recipe
+            recipe = Recipe(part=r.part, steps=r.steps, lr=self.lrs[curve], batch_size=r.batch_size, views=r.views,
+                            seed=seed)
+            if curve == "imagenet":
+                _reset_head(net, seed)
+            rows = torch.as_tensor(chosen, dtype=torch.long)
+            adapt(net, self.inputs[curve][:, rows], self.labels[rows], recipe, self.mix if curve == "synthetic" else None)
+        return self.score(curve, rest, y)
+
+    def score(self, curve: str, rows: np.ndarray, y: np.ndarray) -> dict:
+        """The metrics of ``curve``'s model on the photos ``rows`` (their probabilities averaged over what is
+        scored: with ``tta_flip``, the photo and its mirror)."""
+        import torch
+
+        from deformsim.evaluate.metrics import compute_metrics
+        from deformsim.learn.finetune import part_logits
+
+        net, pick = self.models[curve].eval(), torch.as_tensor(rows, dtype=torch.long)
         with torch.no_grad():
-            prob = torch.stack([torch.cat([torch.sigmoid(part_logits(net, b.to(device), recipe.part)).cpu()
-                                           for b in x[pick].split(cfg.batch_size)]) for x in scored[curve]]).mean(0)
-        return compute_metrics(y[rows], prob.double().numpy(), cfg.threshold)
+            prob = torch.stack([torch.cat([torch.sigmoid(part_logits(net, b.to(self.device), self.recipe.part)).cpu()
+                                           for b in x[pick].split(self.cfg.batch_size)])
+                                for x in self.scored[curve]]).mean(0)
+        return compute_metrics(y[rows], prob.double().numpy(), self.cfg.threshold)
 
+
+def _loop(bench: _Bench, inputs: _Inputs) -> list[dict]:
+    """Every run: per k, ``draws`` draws of k photos per class (one draw, and only the synthetic curve, at k = 0);
+    per draw, each curve ``seeds`` times (the unadapted model once: it draws nothing)."""
+    table, y, draws = inputs.table, inputs.y, inputs.draws
+    repeats = {c: inputs.seeds if c != "unadapted" else 1 for c in bench.models}
+    total = sum(draws * sum(repeats.values()) if k else int("synthetic" in bench.models) for k in inputs.ks)
     runs: list[dict] = []
-    repeats = {c: seeds if c != "unadapted" else 1 for c in models}  # the unadapted model draws nothing
-    total = sum(draws * sum(repeats.values()) if k else int("synthetic" in models) for k in ks)
-    for k in ks:
+    for k in inputs.ks:
         for d in range(draws if k else 1):
             chosen, rest = draw(y, k, np.random.default_rng([k, d]))
-            assert set(table["digest"].iloc[chosen]).isdisjoint(table["digest"].iloc[rest])
-            assert set(table["path"].iloc[chosen]).isdisjoint(table["path"].iloc[rest]) and len(rest)
-            rows = torch.as_tensor(chosen, dtype=torch.long)
-            for curve in models if k else [c for c in models if c == "synthetic"]:
-                for s in range(repeats[curve] if k else 1):
-                    net = models[curve]
-                    trains[curve].load_state_dict(starts[curve])
-                    if k and curve != "unadapted":
-                        run_recipe = Recipe(part=recipe.part, steps=recipe.steps, lr=lrs[curve],
-                                            batch_size=recipe.batch_size, views=recipe.views, seed=s)
-                        if curve == "imagenet":
-                            _reset_head(net, s)
-                        adapt(net, inputs[curve][:, rows], labels[rows], run_recipe,
-                              mix if curve == "synthetic" else None)
-                    m = score(curve, rest)
-                    runs.append({"curve": curve, "k": k, "draw": d, "seed": s, "adapted_on": list(table["id"].iloc[chosen]),
-                                 "n_test": int(len(rest)), "accuracy": m["accuracy"], "f1": m["f1"],
-                                 "interval": m["interval"]})
-                    log.info("run %d/%d: %s, k %d, draw %d, seed %d: accuracy %.3f, F1 %.3f on %d photos",
-                             len(runs), total, curve, k, d, s, m["accuracy"], m["f1"], len(rest))
+            for curve, s in _runs_of_draw(k, bench.models, repeats):
+                m = bench.run(curve, k, s, chosen, rest, y)
+                runs.append({"curve": curve, "k": k, "draw": d, "seed": s, "adapted_on": list(table["id"].iloc[chosen]),
+                             "n_test": int(len(rest)), "accuracy": m["accuracy"], "f1": m["f1"],
+                             "interval": m["interval"]})
+                log.info("run %d/%d: %s, k %d, draw %d, seed %d: accuracy %.3f, F1 %.3f on %d photos",
+                         len(runs), total, curve, k, d, s, m["accuracy"], m["f1"], len(rest))
+    return runs
+
+
+def _runs_of_draw(k: int, models: dict, repeats: dict[str, int]) -> list[tuple[str, int]]:
+    """(curve, training seed) of each run on one draw: every curve ``repeats`` times; at k = 0, where nothing is
+    adapted, the synthetic curve once."""
+    if not k:
+        return [("synthetic", 0)] if "synthetic" in models else []
+    return [(c, s) for c in models for s in range(repeats[c])]
+
+
+def _summarise(inputs: _Inputs, bench: _Bench, runs: list[dict]) -> dict:
+    """What ``fewshot.json`` records (all but ``seconds``): the inputs, settings, per-curve summaries and runs."""
+    y, recipe = inputs.y, bench.recipe
     share = float(y.mean())
-    results = {
+    return {
         "kind": "fewshot",
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "real_dir": str(Path(real).resolve()), "model": str(path), "backbone": cfg.backbone, "weights": weights,
+        "real_dir": str(Path(inputs.real).resolve()), "model": str(inputs.path), "backbone": inputs.cfg.backbone,
+        "weights": bench.weights,
         "photos": {"intact": int((y == 0).sum()), "deformed": int((y == 1).sum())},
         "majority_baseline": max(share, 1 - share),
-        "ks": ks, "capped": capped, "draws": draws, "seeds": seeds,
+        "ks": inputs.ks, "capped": inputs.capped, "draws": inputs.draws, "seeds": inputs.seeds,
         "recipe": {"part": recipe.part, "steps": recipe.steps, "batch_size": recipe.batch_size,
-                   "views": recipe.views, "lr": lrs},
-        "data": None if data is None else str(data), "variant": variant,
-        "curves": {c: _summary(runs, ks, c, y, 0) for c in models},
+                   "views": recipe.views, "lr": bench.lrs},
+        "data": None if inputs.data is None else str(inputs.data), "variant": inputs.variant,
+        "curves": {c: _summary(runs, inputs.ks, c, y, 0) for c in bench.models},
         "runs": runs,
-        "seconds": time.perf_counter() - start,
     }
-    write_json(out / "fewshot.json", results)
-    curves = {c: [CurveRow.model_validate(r, strict=False) for r in rows] for c, rows in results["curves"].items()}
-    write_bytes(out / "fewshot.png", fewshot_png(curves, TITLES))
-    return results
 
 
 def _reset_head(net, seed: int) -> None:

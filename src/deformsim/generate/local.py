@@ -8,11 +8,14 @@ from __future__ import annotations
 
 import errno
 import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator
 
 from deformsim.config import Config
 from deformsim.dataset.layout import Layout
 from deformsim.dataset.rendered import Rendered
-from deformsim.errors import ResourceError, UserError
+from deformsim.errors import ResourceError
 from deformsim.generate.backend import (
     Retries,
     Todo,
@@ -26,6 +29,7 @@ from deformsim.generate.backend import (
 from deformsim.generate.worker_client import WorkerCrashed, WorkerProcess
 from deformsim.log import get_logger, progress_bar
 from deformsim.parallel import cores_per_worker
+from deformsim.pool import Pool, Stopped
 
 log = get_logger(__name__)
 
@@ -36,109 +40,107 @@ def run_local(cfg: Config, layout: Layout, todo: Todo, progress: bool) -> tuple[
     threads = cfg.render.threads or cores_per_worker(n_workers)
     views = len(cfg.camera.azimuth_quadrants)
     retries = Retries(cfg.generate.max_retries)
-    stop = threading.Event()
-    lock = threading.Lock()
-    remaining = [len(todo)]
-    device = [""]
-    errors: list = []  # what stopped the run: a message, or an error to raise as it is
-    live: dict[int, object] = {}  # worker slot -> running WorkerProcess, killed on Ctrl-C
     logs = layout.root / "logs"
     logs.mkdir(exist_ok=True)
     since = log_sizes(layout)
-    bar = progress_bar(total=len(todo) * views, desc="render", enabled=progress)
-
-    def retry_or_fail(i: int, reason: str) -> None:
-        full = disk_full(layout, reason, since=since)
-        if full is not None:  # every other sample would fail the same way
-            with lock:
-                errors.append(full)
-            stop.set()
-            return
-        with lock:
-            if retries.retry(i, reason):
-                todo.again(i)
-            else:
-                remaining[0] -= 1
-
-    def run_worker(w: int) -> None:
-        proc = None
-        rendered = 0
-        try:
-            while not stop.is_set():
-                with lock:
-                    if remaining[0] <= 0:
-                        return
-                i = todo.take()
-                if i is None:  # every sample handed out; a retry may still come
-                    stop.wait(0.2)
-                    continue
-                if proc is None or rendered >= cfg.generate.recycle_every:
-                    if proc is not None:
-                        proc.close()
-                    proc = WorkerProcess(log_path=logs / f"worker{w}.log", threads=threads)
-                    live[w] = proc
-                    ready = proc.start(worker_setup(cfg, layout))
-                    if stop.is_set():  # stopped while it started
-                        return
-                    device[0] = ready.get("device", "")
-                    camera_scale = float(ready.get("camera_scale", 1.0))
-                    rendered = 0
-                params = todo.draw(i)
-                try:
-                    reply = proc.render(params.to_dict())
-                except WorkerCrashed as exc:
-                    proc = None
-                    if not stop.is_set():  # else we killed it ourselves (Ctrl-C)
-                        retry_or_fail(i, f"worker crashed ({exc})")
-                    continue
-                if "error" in reply:
-                    retry_or_fail(i, reply.get("message", "render error"))
-                    continue
-                finish_sample(layout, params, Rendered.from_dict(reply), camera_scale)
-                rendered += views
-                with lock:
-                    remaining[0] -= 1
-                bar.update(views)
-        except WorkerCrashed as exc:  # crashed while starting: a setup problem, not a sample's
-            stop.set()
-            errors.append(disk_full(layout, str(exc), since=since) or f"worker failed to start: {exc}")
-        except OSError as exc:  # the driver's own writes (sample records)
-            stop.set()
-            errors.append(disk_full(layout, str(exc)) if exc.errno in (errno.ENOSPC, errno.EDQUOT) else exc)
-        except Exception as exc:  # pragma: no cover - surfaced to the caller below
-            stop.set()
-            errors.append(exc)
-        finally:
-            if proc is not None:
-                proc.kill() if stop.is_set() else proc.close()
-
-    pool = [threading.Thread(target=run_worker, args=(w,), daemon=True) for w in range(n_workers)]
+    left = _Left(len(todo))
+    device = ""
     log.info("rendering with %d worker(s), %d Cycles thread(s) each", n_workers, threads)
     try:
-        for t in pool:
-            t.start()
-        for t in pool:
-            while t.is_alive():
-                t.join(timeout=0.5)
-    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM raised as one
-        stop.set()
-        for proc in list(live.values()):
-            proc.kill()
-        for t in pool:
-            t.join(timeout=10)
-        for proc in list(live.values()):  # any started while the threads stopped
-            proc.kill()
-        bar.close()
+        with progress_bar(total=len(todo) * views, desc="render", enabled=progress) as bar, \
+                Pool(lambda slot: Renderer(slot, cfg, layout, todo, threads, pool.stopping), n_workers) as pool:
+            for out in pool.map(_pending(todo, left, pool.stopping)):
+                device = out.device or device
+                if out.failed is None:
+                    left.samples -= 1
+                    bar.update(views)
+                    continue
+                full = disk_full(layout, out.failed, since=since)
+                if full is not None:  # every other sample would fail the same way
+                    raise full
+                if retries.retry(out.sample, out.failed):
+                    todo.again(out.sample)
+                else:
+                    left.samples -= 1
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM raised as one: the pool killed the workers
         remove_partial_files(layout)
         raise
-    bar.close()
-    if errors:
-        first = errors[0]
-        if isinstance(first, UserError):
-            raise first
-        if isinstance(first, str):
-            raise ResourceError(f"{first} (see {logs})")
-        raise first
-    if device[0]:
-        log.info("Cycles device: %s", device[0])
-    return retries.failed, device[0]
+    except WorkerCrashed as exc:  # crashed while starting: a setup problem, not a sample's
+        full = disk_full(layout, str(exc), since=since)
+        raise full or ResourceError(f"worker failed to start: {exc} (see {logs})") from None
+    except OSError as exc:  # the driver's own writes (sample records)
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise (disk_full(layout, str(exc)) or exc) from None
+        raise
+    if device:
+        log.info("Cycles device: %s", device)
+    return retries.failed, device
+
+
+@dataclass
+class _Left:
+    samples: int  # not yet rendered nor given up
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """A sample rendered (``failed`` None) or failed (why), and the Cycles device of the worker that tried it."""
+
+    sample: int
+    failed: str | None
+    device: str
+
+
+def _pending(todo: Todo, left: _Left, stopping: threading.Event) -> Iterator[int]:
+    """The samples to render as workers ask, until none is left (a retried one may still come while some are out)
+    or the run stops."""
+    while left.samples > 0 and not stopping.is_set():
+        i = todo.take()
+        if i is None:  # every sample handed out; a retry may still come
+            stopping.wait(0.2)
+            continue
+        yield i
+
+
+class Renderer:
+    """One render worker: drives a Blender worker process (started when needed, restarted every
+    ``generate.recycle_every`` views) and renders one sample at a time."""
+
+    def __init__(self, slot: int, cfg: Config, layout: Layout, todo: Todo, threads: int, stopping: threading.Event):
+        self.cfg, self.layout, self.todo, self.threads, self.stopping = cfg, layout, todo, threads, stopping
+        self.log_path: Path = layout.root / "logs" / f"worker{slot}.log"
+        self.proc: WorkerProcess | None = None
+        self.rendered, self.camera_scale, self.device = 0, 1.0, ""
+
+    def __call__(self, i: int) -> Outcome:
+        if self.proc is None or self.rendered >= self.cfg.generate.recycle_every:
+            if self.proc is not None:
+                self.proc.close()
+            self.proc = WorkerProcess(log_path=self.log_path, threads=self.threads)
+            ready = self.proc.start(worker_setup(self.cfg, self.layout))
+            if self.stopping.is_set():  # stopped while it started
+                raise Stopped
+            self.device = ready.get("device", "")
+            self.camera_scale = float(ready.get("camera_scale", 1.0))
+            self.rendered = 0
+        params = self.todo.draw(i)
+        try:
+            reply = self.proc.render(params.to_dict())
+        except WorkerCrashed as exc:
+            self.proc = None
+            if self.stopping.is_set():  # we killed it ourselves (Ctrl-C)
+                raise Stopped from None
+            return Outcome(i, f"worker crashed ({exc})", self.device)
+        if "error" in reply:
+            return Outcome(i, reply.get("message", "render error"), self.device)
+        finish_sample(self.layout, params, Rendered.from_dict(reply), self.camera_scale)
+        self.rendered += len(self.cfg.camera.azimuth_quadrants)
+        return Outcome(i, None, self.device)
+
+    def close(self) -> None:
+        if self.proc is not None:
+            self.proc.close()
+
+    def kill(self) -> None:
+        if self.proc is not None:
+            self.proc.kill()
