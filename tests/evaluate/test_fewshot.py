@@ -95,7 +95,7 @@ def test_a_model_adapted_on_the_folder_is_refused(tiny, tmp_path):
 
     model, real = tiny
     adapted = finetune(model, real, tmp_path / "ft", Recipe(**QUICK), progress=False).model_path
-    with pytest.raises(UserError, match="fine-tuned on 12 of these images"):
+    with pytest.raises(UserError, match="learnt from the labels of 12 of these images"):
         run_fewshot(real, adapted, tmp_path / "out", (0, 1), draws=1, seeds=1, recipe=Recipe(**QUICK), progress=False)
     assert not (tmp_path / "out").exists()
 

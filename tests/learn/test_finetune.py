@@ -50,7 +50,7 @@ def test_finetune_of_the_tail_with_synthetic_images_mixed_in(trained, photos, bl
 def test_an_adapted_model_refuses_to_be_scored_on_its_photos_even_renamed(trained, photos, tmp_path):
     root, table = photos
     model = finetune(trained, root, tmp_path / "ft", FAST, progress=False).model_path
-    with pytest.raises(UserError, match="fine-tuned on 12 of these images"):
+    with pytest.raises(UserError, match="learnt from the labels of 12 of these images"):
         evaluate_model(model, real_dir=root)
     other = make_blobs(tmp_path / "other", 3, seed=12)
     assert evaluate_model(model, real_dir=tmp_path / "other")["n_images"] == len(other)
@@ -58,7 +58,7 @@ def test_an_adapted_model_refuses_to_be_scored_on_its_photos_even_renamed(traine
     res = CliRunner().invoke(app, ["evaluate", str(model), "--real", str(tmp_path / "other")])
     assert res.exit_code == 2
     errors = [line for line in res.output.splitlines() if line.startswith("error:")]
-    assert len(errors) == 1 and "fine-tuned on 1 of these images" in errors[0] and "renamed.png" in errors[0]
+    assert len(errors) == 1 and "learnt from the labels of 1 of these images" in errors[0] and "renamed.png" in errors[0]
 
 
 @pytest.mark.parametrize("case", ["missing", "empty", "one class", "no images"])
