@@ -53,7 +53,7 @@ def test_an_adapted_model_refuses_to_be_scored_on_its_photos_even_renamed(traine
     with pytest.raises(UserError, match="learnt from the labels of 12 of these images"):
         evaluate_model(model, real_dir=root)
     other = make_blobs(tmp_path / "other", 3, seed=12)
-    assert evaluate_model(model, real_dir=tmp_path / "other")["n_images"] == len(other)
+    assert evaluate_model(model, real_dir=tmp_path / "other").n_images == len(other)
     shutil.copy(table["path"].iloc[0], tmp_path / "other" / "intact" / "renamed.png")
     res = CliRunner().invoke(app, ["evaluate", str(model), "--real", str(tmp_path / "other")])
     assert res.exit_code == 2
