@@ -129,6 +129,7 @@ def test_the_unadapted_curve_scores_as_evaluate_does_with_test_time_crop_and_fli
     shutil.copytree(real, tmp_path / "unique", ignore=shutil.ignore_patterns("copy.png"))  # as fewshot counts them
     expected = evaluate_model(model, real_dir=tmp_path / "unique").metrics.accuracy
     assert results["curves"]["synthetic"][0]["accuracy"] == pytest.approx(expected)
+    assert read_results(tmp_path / "out" / "fewshot.json")["curves"].keys() == results["curves"].keys()  # k = 0 only
 
 
 XSS = ("<script>alert(1)</script>", "<img src=x onerror=alert(1)>", "<svg onload=alert(1)>")

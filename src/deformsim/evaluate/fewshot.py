@@ -334,7 +334,7 @@ def _summarise(inputs: _Inputs, bench: _Bench, runs: list[dict]) -> dict:
         "recipe": {"part": recipe.part, "steps": recipe.steps, "batch_size": recipe.batch_size,
                    "views": recipe.views, "lr": bench.lrs},
         "data": None if inputs.data is None else str(inputs.data), "variant": inputs.variant,
-        "curves": {c: _summary(runs, inputs.ks, c, y, 0) for c in bench.models},
+        "curves": {c: rows for c in bench.models if (rows := _summary(runs, inputs.ks, c, y, 0))},  # --k 0: no imagenet
         "runs": runs,
     }
 
