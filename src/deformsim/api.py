@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     from deformsim.composite.stage import Composited
     from deformsim.evaluate.benchmark import Plan
     from deformsim.evaluate.metrics_file import Evaluation
+    from deformsim.evaluate.results import ResultsFile
     from deformsim.learn.adapter import AdaptRecipe
     from deformsim.learn.finetune import Recipe
     from deformsim.spec.model import Spec
@@ -303,7 +304,7 @@ class Engine:
                               seen_with=self.config)
 
     def sim2real(self, real: str | Path, out: str | Path, plan: Plan | None = None, adapt: str | Path | None = None,
-                 datasets: str | Path | None = None, baseline: str | Path | None = None) -> dict:
+                 datasets: str | Path | None = None, baseline: str | Path | None = None) -> ResultsFile:
         """The sim-to-real benchmark: train on synthetic images over the seeds of ``plan``, test on the labelled
         ``real`` photos; its results (also in ``out/results.json`` and ``out/report.html``), with the paired
         differences to the ``baseline`` benchmark's results when given."""

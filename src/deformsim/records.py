@@ -35,7 +35,7 @@ class RecordFile(Record):
 
     def dump(self) -> dict:
         """The file's content: the keys set when it was made or read, and its schema version."""
-        return self.model_dump(exclude_unset=True) | {"schema_version": self.schema_version}
+        return self.model_dump(exclude_unset=True, by_alias=True) | {"schema_version": self.schema_version}
 
     def write(self, path: str | Path) -> None:
         """Write the record to ``path`` atomically."""

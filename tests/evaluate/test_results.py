@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from deformsim.evaluate.benchmark import aggregate
 from deformsim.evaluate.results import SCHEMA_VERSION
 from tests.evaluate.test_combine import _results
 
@@ -115,3 +116,34 @@ def test_writers_record_the_schema_version_and_older_files_still_read(good, tmp_
     assert json.loads((tmp_path / "bagged" / "results.json").read_text())["schema_version"] == SCHEMA_VERSION
     newer = _write(tmp_path / "new.json", good | {"schema_version": SCHEMA_VERSION + 1})
     assert "schema_version" in _one_line(_bench(tmp_path, "compare", newer, "--baseline", ok))
+
+
+def test_a_results_file_round_trips_with_its_undefined_scores(good, tmp_path):
+    """What a writer builds reads back the same, an AUC undefined on one class (NaN in a spread) included."""
+    from deformsim.evaluate.combine import mean
+    from deformsim.evaluate.results import read_results
+    from tests.evaluate.test_combine import loaded
+
+    combined = mean([loaded(good), loaded(good)], ["a", "b"])
+    combined.runs[0].real.auc = None  # as compute_metrics gives it without both classes
+    combined.variants = aggregate(combined.runs)
+    assert np.isnan(combined.variants["backgrounds"].auc_mean)
+    combined.write(tmp_path / "results.json")
+    again = read_results(tmp_path)
+    assert json.dumps(again.dump(), sort_keys=True) == json.dumps(combined.dump(), sort_keys=True)
+    assert again.dump()["plan"] == {"mean of": ["a", "b"], "whole": False} and again.schema_version == 1
+
+
+@pytest.mark.parametrize("edit, said", [
+    (lambda r: r.update(schema_version=SCHEMA_VERSION + 1), r"has schema_version 2, newer than this deformsim reads \(1\)"),
+    (lambda r: r.update(surprise=1), "surprise: Extra inputs are not permitted"),
+    (lambda r: r["runs"][0]["real"].update(accuracy=1.5), r"runs\[0\].real.accuracy: Input should be less than or equal"),
+])
+def test_a_newer_or_foreign_results_file_is_refused_in_one_line(good, tmp_path, edit, said):
+    from deformsim.errors import UserError
+    from deformsim.evaluate.results import read_results
+
+    path = _write(tmp_path / "results.json", _edited(good, edit))
+    with pytest.raises(UserError, match=said) as err:
+        read_results(tmp_path)
+    assert str(err.value).startswith(str(path)) and "\n" not in str(err.value)
