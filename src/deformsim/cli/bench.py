@@ -160,7 +160,7 @@ def fewshot(
     engine = plain_engine(progress, notify=note(err_console))
     results = engine.fewshot(real, model, out, parse_ks(k), draws, seeds, recipe,
                              [c.strip() for c in curves.split(",") if c.strip()], data, variant)
-    console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'fewshot.json'}",
+    console.print(f"{len(results.runs)} runs in {results.seconds:.0f} s; results: {out / 'fewshot.json'}",
                   highlight=False, soft_wrap=True)
     fewshot_summary(results, out / "fewshot.png")
 

@@ -13,6 +13,7 @@ from rich.table import Table
 from deformsim.cli.common import console
 
 if TYPE_CHECKING:
+    from deformsim.evaluate.fewshot_file import FewshotFile
     from deformsim.evaluate.metrics_file import Scores
     from deformsim.evaluate.results import Difference, ResultsFile, Spreads
 
@@ -130,7 +131,7 @@ def baseline_summary(results: ResultsFile) -> None:
     print_table(table)
 
 
-def fewshot_summary(results: dict, plot: Path) -> None:
+def fewshot_summary(results: FewshotFile, plot: Path) -> None:
     """Print the few-shot benchmark's ``results`` (per k and curve: mean and 95 % interval) and where its plot is."""
     from deformsim.evaluate.fewshot import CURVES, TITLES
 
@@ -138,11 +139,11 @@ def fewshot_summary(results: dict, plot: Path) -> None:
                   header_style="bold")
     for col in ("k per class", "model", "runs", "accuracy", "F1", "interval over", "majority class"):
         table.add_column(col, justify="left" if col == "model" else "right")
-    rows = {(r["k"], curve): r for curve, curve_rows in results["curves"].items() for r in curve_rows}
+    rows = {(r.k, curve): r for curve, curve_rows in results.curves.items() for r in curve_rows}
     for k, curve in sorted(rows, key=lambda key: (key[0], CURVES.index(key[1]))):
         r = rows[k, curve]
-        table.add_row(str(k), TITLES[curve], str(r["runs"]), _share(r["accuracy"], r["accuracy_interval"]),
-                      _share(r["f1"], r["f1_interval"]), r["interval"], _share(r["majority"]))
+        table.add_row(str(k), TITLES[curve], str(r.runs), _share(r.accuracy, r.accuracy_interval),
+                      _share(r.f1, r.f1_interval), r.interval, _share(r.majority))
     print_table(table, None)
     console.print(f"[bold]plot:[/] {plot}", highlight=False, soft_wrap=True)
 
