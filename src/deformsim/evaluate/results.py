@@ -170,7 +170,7 @@ class Settings(_Open):
 class ResultsFile(RecordFile):
     """A benchmark's ``results.json``."""
 
-    WHAT = "benchmark's results (results.json)"
+    WHAT = "benchmark results file (results.json)"
     VERSION = SCHEMA_VERSION
 
     created: Optional[str] = None
