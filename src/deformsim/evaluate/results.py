@@ -68,7 +68,8 @@ class Run(Record):
 
 
 class Spreads(Record):
-    """Mean and sample standard deviation of each real metric (NaN where a metric is undefined: AUC on one class)."""
+    """Mean and sample standard deviation of each real metric (NaN where a metric is undefined: AUC on one class;
+    None: no AUC, in a file from before it, 2026-12-03)."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=True, strict=True)
 
@@ -80,8 +81,8 @@ class Spreads(Record):
     precision_std: float
     recall_mean: float
     recall_std: float
-    auc_mean: float
-    auc_std: float
+    auc_mean: Optional[float] = None
+    auc_std: Optional[float] = None
 
     def spread(self, key: str) -> tuple[float, float]:
         """``<key>_mean`` and ``<key>_std``."""
