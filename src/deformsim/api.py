@@ -27,7 +27,9 @@ from deformsim.log import get_logger
 if TYPE_CHECKING:
     from deformsim.composite.stage import Composited
     from deformsim.evaluate.benchmark import Plan
+    from deformsim.evaluate.fewshot_file import FewshotFile
     from deformsim.evaluate.metrics_file import Evaluation
+    from deformsim.evaluate.results import ResultsFile
     from deformsim.learn.adapter import AdaptRecipe
     from deformsim.learn.finetune import Recipe
     from deformsim.spec.model import Spec
@@ -303,7 +305,7 @@ class Engine:
                               seen_with=self.config)
 
     def sim2real(self, real: str | Path, out: str | Path, plan: Plan | None = None, adapt: str | Path | None = None,
-                 datasets: str | Path | None = None, baseline: str | Path | None = None) -> dict:
+                 datasets: str | Path | None = None, baseline: str | Path | None = None) -> ResultsFile:
         """The sim-to-real benchmark: train on synthetic images over the seeds of ``plan``, test on the labelled
         ``real`` photos; its results (also in ``out/results.json`` and ``out/report.html``), with the paired
         differences to the ``baseline`` benchmark's results when given."""
@@ -315,7 +317,7 @@ class Engine:
     def fewshot(self, real: str | Path, model: str | Path, out: str | Path, ks: Sequence[int] = (0, 1, 2, 5, 10, 20),
                 draws: int = 5, seeds: int = 2, recipe: Recipe | None = None,
                 curves: Sequence[str] = ("synthetic", "unadapted", "imagenet"), data: str | Path | None = None,
-                variant: str | None = None) -> dict:
+                variant: str | None = None) -> FewshotFile:
         """The few-shot benchmark: ``model`` adapted on k labelled photos per class of ``real`` and scored on the
         others, beside the ImageNet backbone trained on them alone; its results (also in ``out/fewshot.json``, the
         curves in ``out/fewshot.png``)."""

@@ -35,7 +35,7 @@ class RecordFile(Record):
 
     def dump(self) -> dict:
         """The file's content: the keys set when it was made or read, and its schema version."""
-        return self.model_dump(exclude_unset=True) | {"schema_version": self.schema_version}
+        return self.model_dump(exclude_unset=True, by_alias=True) | {"schema_version": self.schema_version}
 
     def write(self, path: str | Path) -> None:
         """Write the record to ``path`` atomically."""
@@ -68,15 +68,17 @@ def load_json(path: str | Path, name: str, refused: str, missing: str) -> tuple[
         raise UserError(f"{refused}: {'nested too deeply' if isinstance(exc, RecursionError) else 'not JSON'}") from None
 
 
-def read_record(path: str | Path, model: type[R]) -> R:
-    """The record ``model`` in the JSON file ``path``; one line naming the file when it is none."""
-    refused = f"{path} is not a deformsim {model.WHAT}"
-    raw, data = load_json(path, str(path), refused, f"a {model.WHAT} was expected")
+def read_record(path: str | Path, model: type[R], name: str | None = None) -> R:
+    """The record ``model`` in the JSON file ``path``; one line naming the file (as ``name``, default its path) when
+    it is none."""
+    name = name or str(path)
+    refused = f"{name} is not a deformsim {model.WHAT}"
+    raw, data = load_json(path, name, refused, f"a {model.WHAT} was expected")
     if not isinstance(data, dict):
         raise UserError(f"{refused}: it holds {type(data).__name__} {shown(data, 40)}, not a JSON object")
     version = data.get("schema_version", 1)
     if type(version) is int and version > model.VERSION:
-        raise UserError(f"{path} has schema_version {version}, newer than this deformsim reads ({model.VERSION}): "
+        raise UserError(f"{name} has schema_version {version}, newer than this deformsim reads ({model.VERSION}): "
                         "upgrade deformsim to read it")
     try:
         return model.model_validate_json(raw)

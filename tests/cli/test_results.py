@@ -63,10 +63,24 @@ def test_report_prints_the_summary(monkeypatch, tmp_path):
     assert "70.0% (39.7-89.2)" in res.stdout and res.stdout.strip().endswith(f"report: {report}")
 
 
+def _benchmark(variant: str, predictions: list[list[float]], paths: list[str], labels: list[int], majority: float):
+    """A benchmark's results whose runs of ``variant`` predicted ``predictions``; every mean and std 0.5."""
+    from deformsim.evaluate.results import Aggregate, ResultsFile
+
+    real = {"accuracy": 0.5, "f1": 0.5, "precision": 0.5, "recall": 0.5, "auc": 0.5, "confusion": [[1, 1], [1, 1]]}
+    runs = [{"variant": variant, "data_seed": 0, "composite_seed": 0, "train_seed": k, "model": f"m{k}", "real": real,
+             "synthetic": {"accuracy": 0.5, "f1": 0.5}, "real_predictions": p} for k, p in enumerate(predictions)]
+    results = ResultsFile.model_validate({
+        "runs": runs, "seconds": 3.0, "majority_baseline": majority, "real_dir": "/photos", "real_images": len(paths),
+        "real_paths": paths, "real_labels": labels, "settings": {"train": {"threshold": 0.5}}})
+    spreads = {f"{k}_{s}": 0.5 for k in ("accuracy", "f1", "precision", "recall", "auc", "synthetic_accuracy",
+                                         "synthetic_f1") for s in ("mean", "std")}
+    results.variants = {variant: Aggregate(n_runs=len(runs), **spreads)}
+    return results
+
+
 def test_sim2real_prints_the_summary(monkeypatch, tmp_path):
-    row = {"n_runs": 2, **{f"{k}_{s}": 0.5 for k in ("accuracy", "f1", "precision", "recall", "auc",
-                                                     "synthetic_accuracy") for s in ("mean", "std")}}
-    results = {"runs": [{}, {}], "seconds": 3.0, "variants": {"black": row}, "majority_baseline": 0.62}
+    results = _benchmark("black", [[0.4] * 3] * 2, [f"/photos/{c}.jpg" for c in "abc"], [0, 1, 1], 0.62)
     monkeypatch.setattr(Engine, "sim2real", lambda self, *a, **kw: results)
     res = invoke("bench", "sim2real", "--real", tmp_path, "--out", tmp_path / "b")
     assert res.exit_code == 0, res.output
@@ -114,12 +128,7 @@ def test_sim2real_names_the_photos_most_often_wrong(monkeypatch, tmp_path):
     paths = [f"/photos/{c}/{i}[x].jpg" for c, i in (("intact", 0), ("intact", 1), ("deformed", 2))] + \
         [f"/photos/deformed/{i}.jpg" for i in range(3, 10)]
     labels = [0, 0, 1] + [1] * 7
-    runs = [{"variant": "[red]v", "data_seed": 0, "composite_seed": 0, "train_seed": k,
-             "real_predictions": [0.9, 0.2 + 0.5 * k, 0.1] + [0.4] * 7} for k in range(2)]
-    row = {"n_runs": 2, **{f"{k}_{s}": 0.5 for k in ("accuracy", "f1", "precision", "recall", "auc",
-                                                     "synthetic_accuracy") for s in ("mean", "std")}}
-    results = {"runs": runs, "seconds": 3.0, "variants": {"[red]v": row}, "majority_baseline": 0.8,
-               "real_paths": paths, "real_labels": labels, "settings": {"train": {"threshold": 0.5}}}
+    results = _benchmark("[red]v", [[0.9, 0.2 + 0.5 * k, 0.1] + [0.4] * 7 for k in range(2)], paths, labels, 0.8)
     monkeypatch.setattr(Engine, "sim2real", lambda self, *a, **kw: results)
     res = invoke("bench", "sim2real", "--real", tmp_path, "--out", tmp_path / "b")
     assert res.exit_code == 0, res.output

@@ -9,11 +9,14 @@ import pytest
 
 from deformsim.errors import UserError
 from deformsim.evaluate.benchmark import Plan, aggregate
+from deformsim.evaluate.results import Run
 
 
-def _run(variant, acc, f1, prec, rec, synth):
-    return {"variant": variant, "real": {"accuracy": acc, "f1": f1, "precision": prec, "recall": rec, "auc": synth},
-            "synthetic": {"accuracy": synth, "f1": synth}}
+def _run(variant, acc, f1, prec, rec, synth, auc=None):
+    return Run(variant=variant, data_seed=0, composite_seed=None, train_seed=0, model="m", real_predictions=[],
+               real={"accuracy": acc, "f1": f1, "precision": prec, "recall": rec, "auc": synth if auc is None else auc,
+                     "confusion": [[0, 0], [0, 0]]},
+               synthetic={"accuracy": synth, "f1": synth})
 
 
 def test_aggregate_gives_mean_and_sample_std_per_variant():
@@ -22,15 +25,15 @@ def test_aggregate_gives_mean_and_sample_std_per_variant():
     s = aggregate(runs)
     assert list(s) == ["backgrounds", "black"]
     bg = s["backgrounds"]
-    assert bg["n_runs"] == 3
+    assert bg.n_runs == 3
     # by hand: mean 0.7; deviations -0.1, 0.1, 0 -> sample variance 0.02 / 2 = 0.01 -> std 0.1
-    assert bg["accuracy_mean"] == pytest.approx(0.7) and bg["accuracy_std"] == pytest.approx(0.1)
-    assert bg["f1_mean"] == pytest.approx(0.7) and bg["f1_std"] == pytest.approx(0.2)
-    assert bg["precision_mean"] == pytest.approx(0.9) and bg["precision_std"] == pytest.approx(0.1)
-    assert bg["recall_mean"] == pytest.approx(0.6) and bg["recall_std"] == pytest.approx(0.2)
-    assert bg["synthetic_accuracy_mean"] == pytest.approx(0.95) and bg["synthetic_accuracy_std"] == pytest.approx(0.05)
-    assert bg["auc_mean"] == pytest.approx(0.95) and bg["auc_std"] == pytest.approx(0.05)
-    assert s["black"]["n_runs"] == 1 and s["black"]["accuracy_std"] == 0.0
+    assert bg.spread("accuracy") == pytest.approx((0.7, 0.1))
+    assert bg.spread("f1") == pytest.approx((0.7, 0.2))
+    assert bg.spread("precision") == pytest.approx((0.9, 0.1))
+    assert bg.spread("recall") == pytest.approx((0.6, 0.2))
+    assert bg.spread("synthetic_accuracy") == pytest.approx((0.95, 0.05))
+    assert bg.spread("auc") == pytest.approx((0.95, 0.05))
+    assert s["black"].n_runs == 1 and s["black"].accuracy_std == 0.0
 
 
 @pytest.mark.parametrize("kwargs", [{"train_seeds": 0}, {"composite_seeds": -1}, {"variants": ()}])
@@ -85,8 +88,8 @@ def test_training_reads_nothing_under_the_real_folder(tmp_path, monkeypatch):
     results = run_benchmark(cfg, tmp_path / "bench", real, Plan(composite_seeds=1, train_seeds=1, variants=("black",)),
                             progress=False)
     assert touched == []
-    assert results["variants"]["black"]["n_runs"] == 1 and results["real_images"] == 6
-    assert results["settings"]["train"]["threshold"] == 0.5
+    assert results.variants["black"].n_runs == 1 and results.real_images == 6
+    assert results.threshold == 0.5
 
 
 @pytest.mark.blender
@@ -102,11 +105,11 @@ def test_whole_trains_on_every_render_and_scores_its_validation_split(tmp_path, 
     for ensemble in (1, 2):
         cfg.train.ensemble = ensemble
         results = run_benchmark(cfg, tmp_path / f"bench{ensemble}", real, plan, progress=False)
-        assert results["plan"]["whole"] is True and len(results["runs"]) == 1
-        trained = json.loads((Path(results["runs"][0]["model"]) / "train.json").read_text())
+        assert results.plan.whole is True and len(results.runs) == 1
+        trained = json.loads((Path(results.runs[0].model) / "train.json").read_text())
         assert trained["n_train"] + trained["n_val"] == 16  # every render
         held = trained["ensemble"] if ensemble > 1 else trained["history"][-1]
-        assert results["runs"][0]["synthetic"]["accuracy"] == pytest.approx(held["val_acc"], abs=1e-6)
+        assert results.runs[0].synthetic.accuracy == pytest.approx(held["val_acc"], abs=1e-6)
 
 
 def test_a_variant_composited_before_the_dataset_grew_is_composited_again(tmp_path):

@@ -60,17 +60,17 @@ def test_each_run_scores_the_photos_it_did_not_adapt_on(tiny, tmp_path):
     model, real = tiny
     results = run_fewshot(real, model, tmp_path / "out", (0, 1, 2, 9), draws=2, seeds=1, recipe=Recipe(**QUICK),
                           progress=False)
-    assert results["ks"] == [0, 1, 2, 5] and results["capped"] == [9]  # the copy counts once: 6 + 6 photos
-    for run in results["runs"]:
+    assert results.ks == [0, 1, 2, 5] and results.capped == [9]  # the copy counts once: 6 + 6 photos
+    for run in results.runs:
         assert run["n_test"] == 12 - 2 * run["k"] and len(run["adapted_on"]) == 2 * run["k"]
-    assert [r["k"] for r in results["curves"]["synthetic"]] == [0, 1, 2, 5]
-    assert [r["k"] for r in results["curves"]["imagenet"]] == [1, 2, 5]
-    assert [r["runs"] for r in results["curves"]["unadapted"]] == [2, 2, 2]  # one per draw: it trains nothing
-    assert results["curves"]["synthetic"][0]["interval"] == "photos"
-    assert [r["majority"] for r in results["curves"]["synthetic"]] == [0.5] * 4
-    for row in results["curves"]["imagenet"]:
-        assert row["runs"] == 2 and row["accuracy_interval"][0] <= row["accuracy"] <= row["accuracy_interval"][1]
-    assert read_results(tmp_path / "out" / "fewshot.json")["kind"] == "fewshot"
+    assert [r.k for r in results.curves["synthetic"]] == [0, 1, 2, 5]
+    assert [r.k for r in results.curves["imagenet"]] == [1, 2, 5]
+    assert [r.runs for r in results.curves["unadapted"]] == [2, 2, 2]  # one per draw: it trains nothing
+    assert results.curves["synthetic"][0].interval == "photos"
+    assert [r.majority for r in results.curves["synthetic"]] == [0.5] * 4
+    for row in results.curves["imagenet"]:
+        assert row.runs == 2 and row.accuracy_interval[0] <= row.accuracy <= row.accuracy_interval[1]
+    assert read_results(tmp_path / "out" / "fewshot.json") == results
     assert (tmp_path / "out" / "fewshot.png").read_bytes()[:4] == b"\x89PNG"
 
 
@@ -109,9 +109,9 @@ def test_the_report_section_escapes_names_and_a_foreign_file_is_refused(tmp_path
     html = fewshot_section(FewshotFile.model_validate_json(json.dumps(results)))
     assert "&lt;script&gt;" in html and "<script>" not in html and "m&amp;m" in html and "70.0%" in html
     (tmp_path / "f.json").write_text(json.dumps(results))
-    assert read_results(tmp_path / "f.json")["model"] == "m&m"
+    assert read_results(tmp_path / "f.json").model == "m&m"
     (tmp_path / "g.json").write_text(json.dumps({**results, "kind": "sim2real"}))
-    with pytest.raises(UserError, match="is not a deformsim few-shot result"):
+    with pytest.raises(UserError, match=r"^--fewshot .*g.json is not a deformsim few-shot result"):
         read_results(tmp_path / "g.json")
 
 
@@ -128,8 +128,8 @@ def test_the_unadapted_curve_scores_as_evaluate_does_with_test_time_crop_and_fli
     results = run_fewshot(real, model, tmp_path / "out", (0,), draws=1, seeds=1, recipe=Recipe(**QUICK), progress=False)
     shutil.copytree(real, tmp_path / "unique", ignore=shutil.ignore_patterns("copy.png"))  # as fewshot counts them
     expected = evaluate_model(model, real_dir=tmp_path / "unique").metrics.accuracy
-    assert results["curves"]["synthetic"][0]["accuracy"] == pytest.approx(expected)
-    assert read_results(tmp_path / "out" / "fewshot.json")["curves"].keys() == results["curves"].keys()  # k = 0 only
+    assert results.curves["synthetic"][0].accuracy == pytest.approx(expected)
+    assert read_results(tmp_path / "out" / "fewshot.json").curves.keys() == results.curves.keys()  # k = 0 only
 
 
 XSS = ("<script>alert(1)</script>", "<img src=x onerror=alert(1)>", "<svg onload=alert(1)>")
@@ -143,12 +143,12 @@ def _shots() -> dict:
 
 
 @pytest.mark.parametrize("where, value, said", [
-    (("photos", "intact"), XSS[0], r"photos.intact: Input should be a valid integer \(got '<script>"),
+    (("photos", "intact"), XSS[0], r"photos.intact: Input should be a valid integer \(got <script>"),
     (("draws",), XSS[1], "draws: Input should be a valid integer"),
     (("seeds",), XSS[2], "seeds: Input should be a valid integer"),
-    (("curves", "synthetic", 0, "k"), XSS[1], "curves.synthetic.0.k: Input should be a valid integer"),
+    (("curves", "synthetic", 0, "k"), XSS[1], r"curves.synthetic\[0\].k: Input should be a valid integer"),
     (("draws",), [1, 2], r"draws: Input should be a valid integer \(got \[1, 2\]\)"),  # was a TypeError
-    (("photos",), None, "photos: missing"),  # was a KeyError
+    (("photos",), None, "photos: Field required"),  # was a KeyError
     (("curves", "synthetic"), [], "curves.synthetic: List should have at least 1 item"),
     (("majority_baseline",), float("nan"), "majority_baseline: Input should be a finite number"),
     (("real_dir",), 5, "real_dir: Input should be a valid string"),
@@ -174,3 +174,18 @@ def test_a_fewshot_file_nested_deep_or_not_json_is_one_line(tmp_path):
         (tmp_path / "f.json").write_text(text)
         with pytest.raises(UserError, match=said):
             read_results(tmp_path / "f.json")
+
+
+def test_a_fewshot_file_round_trips_an_older_one_reads_and_a_newer_one_is_refused(tmp_path):
+    from deformsim.records import made
+
+    shots = _shots()
+    (tmp_path / "old.json").write_text(json.dumps(shots))  # as written before the schema version
+    old = read_results(tmp_path / "old.json")
+    assert old.schema_version == 1 and old.curves["synthetic"][0].accuracy == 0.7
+    made(FewshotFile, shots).write(tmp_path / "new.json")
+    assert json.loads((tmp_path / "new.json").read_text()) == shots | {"schema_version": 1}
+    assert read_results(tmp_path / "new.json") == made(FewshotFile, shots)
+    (tmp_path / "newer.json").write_text(json.dumps(shots | {"schema_version": 2}))
+    with pytest.raises(UserError, match=r"^--fewshot .*newer.json has schema_version 2, newer than this deformsim reads"):
+        read_results(tmp_path / "newer.json")

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from deformsim.evaluate.results import SCHEMA_VERSION
+from deformsim.evaluate.benchmark import aggregate
+from deformsim.evaluate.results import SCHEMA_VERSION, read_results
 from tests.evaluate.test_combine import _results
 
 
@@ -115,3 +116,50 @@ def test_writers_record_the_schema_version_and_older_files_still_read(good, tmp_
     assert json.loads((tmp_path / "bagged" / "results.json").read_text())["schema_version"] == SCHEMA_VERSION
     newer = _write(tmp_path / "new.json", good | {"schema_version": SCHEMA_VERSION + 1})
     assert "schema_version" in _one_line(_bench(tmp_path, "compare", newer, "--baseline", ok))
+
+
+def test_a_results_file_round_trips_with_its_undefined_scores(good, tmp_path):
+    """What a writer builds reads back the same, an AUC undefined on one class (NaN in a spread) included."""
+    from deformsim.evaluate.combine import mean
+    from tests.evaluate.test_combine import loaded
+
+    combined = mean([loaded(good), loaded(good)], ["a", "b"])
+    combined.runs[0].real.auc = None  # as compute_metrics gives it without both classes
+    combined.variants = aggregate(combined.runs)
+    assert np.isnan(combined.variants["backgrounds"].auc_mean)
+    combined.write(tmp_path / "results.json")
+    again = read_results(tmp_path)
+    assert json.dumps(again.dump(), sort_keys=True) == json.dumps(combined.dump(), sort_keys=True)
+    assert again.dump()["plan"] == {"mean of": ["a", "b"], "whole": False} and again.schema_version == 1
+
+
+@pytest.mark.parametrize("edit, said", [
+    (lambda r: r.update(schema_version=SCHEMA_VERSION + 1), r"has schema_version 2, newer than this deformsim reads \(1\)"),
+    (lambda r: r.update(surprise=1), "surprise: Extra inputs are not permitted"),
+    (lambda r: r["runs"][0]["real"].update(accuracy=1.5), r"runs\[0\].real.accuracy: Input should be less than or equal"),
+])
+def test_a_newer_or_foreign_results_file_is_refused_in_one_line(good, tmp_path, edit, said):
+    from deformsim.errors import UserError
+
+    path = _write(tmp_path / "results.json", _edited(good, edit))
+    with pytest.raises(UserError, match=said) as err:
+        read_results(tmp_path)
+    assert str(err.value).startswith(str(path)) and "\n" not in str(err.value)
+
+
+def test_a_results_file_from_before_the_auc_still_combines(good, tmp_path):
+    """Files written before 2026-12-03 have no AUC in their runs, spreads and ensembles: merge, mean, bag and compare
+    read them."""
+    from deformsim.evaluate.combine import mean
+
+    old = _edited(good, lambda r: [run["real"].pop("auc") for run in r["runs"]])
+    old["variants"] = {"backgrounds": {"n_runs": 4, **{f"{k}_{s}": 0.5 for k in ("accuracy", "f1", "precision", "recall",
+                                                     "synthetic_accuracy", "synthetic_f1") for s in ("mean", "std")}}}
+    old["ensembles"] = {"backgrounds": {"n_draws": 2, "members": 2, **{f"{k}_{s}": 0.5 for k in (
+        "accuracy", "f1", "precision", "recall") for s in ("mean", "std")}}}
+    path = _write(tmp_path / "old" / "results.json", old)
+    read = read_results(path)
+    assert read.runs[0].real.auc is None and read.variants["backgrounds"].auc_mean is None
+    assert mean([read, read], ["a", "b"]).variants["backgrounds"].auc_mean is not None  # scored again
+    res = _bench(tmp_path, "compare", path, "--baseline", path)
+    assert res.exit_code == 0 and "Difference to" in res.output, res.output

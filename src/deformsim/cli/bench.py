@@ -55,7 +55,7 @@ def register(app: typer.Typer) -> None:
                     train_seeds=train_seeds or (2 if quick else 3),
                     variants=tuple(v.strip() for v in variants.split(",") if v.strip()), whole=whole)
         results = engine.sim2real(real, out, plan, adapt=adapt, datasets=datasets, baseline=baseline)
-        console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'results.json'}",
+        console.print(f"{len(results.runs)} runs in {results.seconds:.0f} s; results: {out / 'results.json'}",
                       highlight=False, soft_wrap=True)
         sim2real_summary(results, out / "report.html")
 
@@ -67,10 +67,10 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Print each metric's paired difference between two sim2real benchmarks, with 95 % intervals."""
         from deformsim.evaluate.paired import compare as paired
-        from deformsim.evaluate.results import read_results
+        from deformsim.evaluate.results import Baseline, read_results
 
         new = read_results(results)
-        new["baseline"] = {"results": str(baseline), "comparison": paired(new, read_results(baseline))}
+        new.baseline = Baseline(results=str(baseline), comparison=paired(new, read_results(baseline)))
         baseline_summary(new)
 
     bench_app.command("merge")(fail_cleanly(merge))
@@ -112,7 +112,6 @@ def bag(results: Path = typer.Argument(..., help="a benchmark's results.json (or
 
 def _combined(combine, results: list[Path], out: Path) -> None:
     """Combine ``results`` into ``out/results.json`` and ``out/report.html``, then print its summary."""
-    from deformsim.atomic import write_json
     from deformsim.evaluate.results import read_results
     from deformsim.outputs import check_file_target, check_folder_target
     from deformsim.report.benchmark import write_benchmark_report
@@ -122,7 +121,7 @@ def _combined(combine, results: list[Path], out: Path) -> None:
     check_file_target(out / "results.json", "--out", files)
     combined = combine([read_results(f) for f in files], [str(f) for f in files])
     out.mkdir(parents=True, exist_ok=True)
-    write_json(out / "results.json", combined)
+    combined.write(out / "results.json")
     sim2real_summary(combined, write_benchmark_report(combined, out))
 
 
@@ -161,7 +160,7 @@ def fewshot(
     engine = plain_engine(progress, notify=note(err_console))
     results = engine.fewshot(real, model, out, parse_ks(k), draws, seeds, recipe,
                              [c.strip() for c in curves.split(",") if c.strip()], data, variant)
-    console.print(f"{len(results['runs'])} runs in {results['seconds']:.0f} s; results: {out / 'fewshot.json'}",
+    console.print(f"{len(results.runs)} runs in {results.seconds:.0f} s; results: {out / 'fewshot.json'}",
                   highlight=False, soft_wrap=True)
     fewshot_summary(results, out / "fewshot.png")
 

@@ -13,7 +13,9 @@ from rich.table import Table
 from deformsim.cli.common import console
 
 if TYPE_CHECKING:
+    from deformsim.evaluate.fewshot_file import FewshotFile
     from deformsim.evaluate.metrics_file import Scores
+    from deformsim.evaluate.results import Difference, ResultsFile, Spreads
 
 WIDE = 200  # columns of a summary printed into a file or pipe, so that no cell wraps
 NAMED_WRONG = 5  # photos named per variant after a benchmark's table; its report lists them all
@@ -62,12 +64,12 @@ def report_summary(report: Path) -> None:
     print_table(table, report)
 
 
-def _spreads(row: dict, keys: tuple[str, ...]) -> list[str]:
-    """``row``'s ``<key>_mean`` ± ``<key>_std`` of each key, in percent."""
-    return [f"{100 * row[f'{k}_mean']:.1f} ± {100 * row[f'{k}_std']:.1f}%" for k in keys]
+def _spreads(row: Spreads, keys: tuple[str, ...]) -> list[str]:
+    """``row``'s mean ± std of each key, in percent."""
+    return [f"{100 * mean:.1f} ± {100 * std:.1f}%" for mean, std in map(row.spread, keys)]
 
 
-def _often_wrong(results: dict) -> tuple[str, ...]:
+def _often_wrong(results: ResultsFile) -> tuple[str, ...]:
     """Per variant with a wrong run: the photos its runs most often got wrong, by class folder and file name."""
     from deformsim.evaluate.paired import often_wrong
 
@@ -80,56 +82,56 @@ def _often_wrong(results: dict) -> tuple[str, ...]:
     return tuple(lines)
 
 
-def sim2real_summary(results: dict, report: Path) -> None:
+def sim2real_summary(results: ResultsFile, report: Path) -> None:
     """Print the sim-to-real benchmark's ``results`` (mean ± std over its runs), the photos most often wrong and
     where its report is."""
     from deformsim.evaluate.paired import METRICS
 
-    table = Table(title=f"Real-photo results over {len(results['runs'])} runs (mean ± std)", header_style="bold")
+    table = Table(title=f"Real-photo results over {len(results.runs)} runs (mean ± std)", header_style="bold")
     for col in ("trained on", "runs", "accuracy", "F1", "precision", "recall", "AUC", "synthetic accuracy",
                 "majority class"):
         table.add_column(col, justify="left" if col == "trained on" else "right")
-    for variant, r in results["variants"].items():
+    for variant, r in results.variants.items():
         cells = _spreads(r, (*METRICS, "synthetic_accuracy"))
-        table.add_row(variant, str(r["n_runs"]), *cells, _share(results["majority_baseline"]))
-        e = (results.get("ensembles") or {}).get(variant)
+        table.add_row(variant, str(r.n_runs), *cells, _share(results.majority_baseline))
+        e = (results.ensembles or {}).get(variant)
         if e:
             cells = _spreads(e, METRICS)
-            table.add_row(f"{variant}, ensemble of {e['members']} seeds", str(e["n_draws"]), *cells, "", "")
+            table.add_row(f"{variant}, ensemble of {e.members} seeds", str(e.n_draws), *cells, "", "")
     from deformsim.evaluate.experiments import low_synthetic_runs
 
     warnings = tuple(f"[bold yellow]warning:[/] {escape(line)}" for line in low_synthetic_runs(results))
-    print_table(table, report, warnings + (_often_wrong(results) if "real_labels" in results else ()))
-    if results.get("baseline"):
+    print_table(table, report, warnings + _often_wrong(results))
+    if results.baseline is not None:
         baseline_summary(results)
 
 
-def _difference(d: dict) -> str:
-    text = f"{100 * d['diff']:+.1f} ({100 * d['low']:+.1f} to {100 * d['high']:+.1f})"
-    return f"[bold]{text}[/]" if d["clears"] else text
+def _difference(d: Difference) -> str:
+    text = f"{100 * d.diff:+.1f} ({100 * d.low:+.1f} to {100 * d.high:+.1f})"
+    return f"[bold]{text}[/]" if d.clears else text
 
 
-def baseline_summary(results: dict) -> None:
+def baseline_summary(results: ResultsFile) -> None:
     """Print the paired differences of ``results`` to its baseline: per variant (and its ensemble), each metric's
     mean difference in points with its 95 % interval, bold where the interval excludes zero."""
     from deformsim.evaluate.paired import METRICS
 
-    table = Table(title=f"Difference to {results['baseline']['results']} (points, 95 % interval over photos and seeds)",
+    table = Table(title=f"Difference to {results.baseline.results} (points, 95 % interval over photos and seeds)",
                   header_style="bold")
     for col in ("trained on", "pairs", "accuracy", "F1", "precision", "recall", "AUC", "verdict"):
         table.add_column(col, justify="left" if col in ("trained on", "verdict") else "right")
-    for variant, c in results["baseline"]["comparison"].items():
+    for variant, c in results.baseline.comparison.items():
         for part, name in (("runs", variant), ("ensemble", f"{variant}, ensembles"),
                            ("ensemble_vs_single", f"{variant}, ensembles vs single baseline runs")):
-            d = c[part]
-            verdict = ("beats the baseline" if d["accuracy"]["low"] > 0 else "below the baseline"
-                       if d["accuracy"]["high"] < 0 else "within the noise")
-            table.add_row(name, str(c["pairs"]), *(_difference(d[k]) for k in METRICS),
+            d = getattr(c, part)
+            verdict = ("beats the baseline" if d["accuracy"].low > 0 else "below the baseline"
+                       if d["accuracy"].high < 0 else "within the noise")
+            table.add_row(name, str(c.pairs), *(_difference(d[k]) for k in METRICS),
                           f"accuracy {verdict}")
     print_table(table)
 
 
-def fewshot_summary(results: dict, plot: Path) -> None:
+def fewshot_summary(results: FewshotFile, plot: Path) -> None:
     """Print the few-shot benchmark's ``results`` (per k and curve: mean and 95 % interval) and where its plot is."""
     from deformsim.evaluate.fewshot import CURVES, TITLES
 
@@ -137,11 +139,11 @@ def fewshot_summary(results: dict, plot: Path) -> None:
                   header_style="bold")
     for col in ("k per class", "model", "runs", "accuracy", "F1", "interval over", "majority class"):
         table.add_column(col, justify="left" if col == "model" else "right")
-    rows = {(r["k"], curve): r for curve, curve_rows in results["curves"].items() for r in curve_rows}
+    rows = {(r.k, curve): r for curve, curve_rows in results.curves.items() for r in curve_rows}
     for k, curve in sorted(rows, key=lambda key: (key[0], CURVES.index(key[1]))):
         r = rows[k, curve]
-        table.add_row(str(k), TITLES[curve], str(r["runs"]), _share(r["accuracy"], r["accuracy_interval"]),
-                      _share(r["f1"], r["f1_interval"]), r["interval"], _share(r["majority"]))
+        table.add_row(str(k), TITLES[curve], str(r.runs), _share(r.accuracy, r.accuracy_interval),
+                      _share(r.f1, r.f1_interval), r.interval, _share(r.majority))
     print_table(table, None)
     console.print(f"[bold]plot:[/] {plot}", highlight=False, soft_wrap=True)
 

@@ -24,12 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
-from deformsim.atomic import write_json
 from deformsim.config import Config
 from deformsim.errors import UserError
 from deformsim.evaluate.paired import METRICS as REAL_METRICS
-from deformsim.evaluate.results import SCHEMA_VERSION, read_results
+from deformsim.evaluate.results import Aggregate, Baseline, ResultsFile, Run, read_results
 from deformsim.log import get_logger
+from deformsim.records import made
 
 log = get_logger(__name__)
 
@@ -60,22 +60,20 @@ def _stats(values: list[float]) -> tuple[float, float]:
     return float(a.mean()), float(a.std(ddof=1)) if len(a) > 1 else 0.0
 
 
-def aggregate(runs: list[dict]) -> dict[str, dict]:
+def aggregate(runs: list[Run]) -> dict[str, Aggregate]:
     """Per variant: ``n_runs`` and ``<metric>_mean`` / ``<metric>_std`` of the real metrics and of
     ``synthetic_accuracy`` / ``synthetic_f1`` over its runs."""
-    out: dict[str, dict] = {}
-    for variant in dict.fromkeys(r["variant"] for r in runs):
-        mine = [r for r in runs if r["variant"] == variant]
+    out: dict[str, Aggregate] = {}
+    for variant in dict.fromkeys(r.variant for r in runs):
+        mine = [r for r in runs if r.variant == variant]
         row: dict = {"n_runs": len(mine)}
-        for k in REAL_METRICS:
-            row[f"{k}_mean"], row[f"{k}_std"] = _stats([r["real"][k] for r in mine])
-        for k in ("accuracy", "f1"):
-            row[f"synthetic_{k}_mean"], row[f"synthetic_{k}_std"] = _stats([r["synthetic"][k] for r in mine])
-        out[variant] = row
+        for k in (*REAL_METRICS, "synthetic_accuracy", "synthetic_f1"):
+            row[f"{k}_mean"], row[f"{k}_std"] = _stats([r.value(k) for r in mine])
+        out[variant] = Aggregate(**row)
     return out
 
 
-def run_record(key: tuple, model, y: np.ndarray, prob: np.ndarray, threshold: float, synthetic: dict) -> dict:
+def run_record(key: tuple, model, y: np.ndarray, prob: np.ndarray, threshold: float, synthetic: dict) -> Run:
     """One run as ``results.json`` holds it: its variant and seeds (``key``, as :func:`deformsim.evaluate.paired.run_key`
     gives them), its model, the real metrics and predictions ``prob`` at ``threshold``, and its synthetic accuracy and
     F1."""
@@ -83,9 +81,11 @@ def run_record(key: tuple, model, y: np.ndarray, prob: np.ndarray, threshold: fl
 
     real = compute_metrics(y, prob, threshold)
     variant, data_seed, composite_seed, train_seed = key
-    return {"variant": variant, "data_seed": data_seed, "composite_seed": composite_seed, "train_seed": train_seed,
-            "model": model, "real": {k: real[k] for k in REAL_METRICS} | {"confusion": real["confusion"]["matrix"]},
-            "synthetic": {k: synthetic[k] for k in ("accuracy", "f1")}, "real_predictions": [float(p) for p in prob]}
+    return Run.model_validate(
+        {"variant": variant, "data_seed": data_seed, "composite_seed": composite_seed, "train_seed": train_seed,
+         "model": model, "real": {k: real[k] for k in REAL_METRICS} | {"confusion": real["confusion"]["matrix"]},
+         "synthetic": {k: synthetic[k] for k in ("accuracy", "f1")}, "real_predictions": [float(p) for p in prob]},
+        strict=False)
 
 
 def _synthetic(held: dict, predictor, table, test_df, threshold: float) -> dict:
@@ -99,17 +99,12 @@ def _synthetic(held: dict, predictor, table, test_df, threshold: float) -> dict:
     return compute_metrics(y, np.asarray(held["p_deformed"]), threshold)
 
 
-def trained_on_all(results: dict) -> bool:
-    """Whether a benchmark's models trained on every render (``Plan.whole``; results from before it: no)."""
-    return bool(results.get("plan", {}).get("whole", False))
-
-
 def _draws(variant: str, plan: Plan) -> range:
     return range(1) if variant in RENDERED else range(plan.composite_seeds)
 
 
 def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt: Path | None = None,
-                  datasets: Path | None = None, progress: bool = True, baseline: Path | None = None) -> dict:
+                  datasets: Path | None = None, progress: bool = True, baseline: Path | None = None) -> ResultsFile:
     """Generate (or reuse), composite, train and test every run of ``plan``; write ``out/results.json`` and
     ``out/report.html``. ``baseline``: another benchmark's results to compare with, run by run.
 
@@ -134,7 +129,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
     real_df = real_table(real)
     base = read_results(baseline) if baseline is not None else None
     if base is not None:
-        check_same_photos({"real_paths": list(real_df["path"]), "real_labels": list(real_df["y"])}, base)
+        check_same_photos(list(real_df["path"]), list(real_df["y"]), base)
     photo_variants = [v for v in plan.variants if v not in (*RENDERED, "procedural")]
     if photo_variants and cfg.composite.backgrounds is None:
         raise UserError(f"variants {', '.join(photo_variants)} need composite.backgrounds (a photo folder)")
@@ -146,7 +141,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
         folder = store / data_name(cfg_d)
         folders.append((cfg_d, folder, prepare(cfg_d, folder)))  # every input check before any work
 
-    runs: list[dict] = []
+    runs: list[Run] = []
     total = sum(len(_draws(v, plan)) for v in plan.variants) * plan.data_seeds * plan.train_seeds
     for cfg_d, folder, prepared in folders:
         log.info("dataset seed %d: %s", cfg_d.generate.seed, folder)
@@ -178,8 +173,7 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
                     runs.append(run_record(key, str(model_dir), real_df["y"].to_numpy(), prob, train_cfg.threshold,
                                            synth))
     share = float(real_df["y"].mean())
-    results = {
-        "schema_version": SCHEMA_VERSION,
+    results = made(ResultsFile, {
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "real_dir": str(Path(real).resolve()),
         "real_images": len(real_df),
@@ -192,12 +186,12 @@ def run_benchmark(cfg: Config, out: Path, real: Path, plan: Plan = Plan(), adapt
         "settings": cfg.model_dump(mode="json"),
         "variants": aggregate(runs),
         "runs": runs,
-    }
-    results["ensembles"] = ensembles(results)
+    })
+    results.ensembles = ensembles(results)
     if base is not None:
-        results["baseline"] = {"results": str(Path(baseline).resolve()), "comparison": compare(results, base)}
-    results["seconds"] = time.perf_counter() - t_start
-    write_json(out / "results.json", results)
+        results.baseline = Baseline(results=str(Path(baseline).resolve()), comparison=compare(results, base))
+    results.seconds = time.perf_counter() - t_start
+    results.write(out / "results.json")
     write_benchmark_report(results, out)
     return results
 

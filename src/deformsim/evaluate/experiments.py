@@ -33,6 +33,7 @@ from deformsim.evaluate.dense_experiments import plan as plan_dense
 from deformsim.evaluate.dense_experiments import run_dense
 from deformsim.evaluate.metrics import compute_metrics
 from deformsim.evaluate.metrics_file import Evaluation, Heatmap, MetricsFile, Prediction
+from deformsim.evaluate.results import ResultsFile
 from deformsim.log import get_logger
 from deformsim.records import made
 from deformsim.version import __version__
@@ -194,11 +195,11 @@ def low_synthetic_line(variant: str, accuracy: float, what: str = "held-out synt
             "deformsim spec check --config), then render more or larger images or train longer")
 
 
-def low_synthetic_runs(results: dict) -> list[str]:
+def low_synthetic_runs(results: ResultsFile) -> list[str]:
     """:func:`low_synthetic_line` of each variant of a benchmark's ``results`` whose mean held-out synthetic accuracy
     is too low to read its real figures."""
-    lines = (low_synthetic_line(v, s["synthetic_accuracy_mean"], "mean held-out synthetic accuracy")
-             for v, s in results["variants"].items() if s.get("synthetic_accuracy_mean") is not None)
+    lines = (low_synthetic_line(v, s.synthetic_accuracy_mean, "mean held-out synthetic accuracy")
+             for v, s in results.variants.items())
     return [line for line in lines if line]
 
 

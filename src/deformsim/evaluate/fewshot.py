@@ -32,10 +32,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from deformsim.atomic import write_bytes, write_json
+from deformsim.atomic import write_bytes
 from deformsim.errors import UserError
-from deformsim.evaluate.fewshot_file import CURVES, CurveRow, FewshotFile
+from deformsim.evaluate.fewshot_file import CURVES, FewshotFile
 from deformsim.log import get_logger
+from deformsim.records import made, read_record
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -116,7 +117,7 @@ def _summary(runs: list[dict], ks: list[int], curve: str, y: np.ndarray, seed: i
 
 def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, draws: int = 5, seeds: int = 2,
                 recipe: Recipe | None = None, curves: tuple[str, ...] = CURVES, data: Path | None = None,
-                variant: str | None = None, progress: bool = True) -> dict:
+                variant: str | None = None, progress: bool = True) -> FewshotFile:
     """Both curves (or those in ``curves``) on the labelled photos of ``real`` for the trained ``model``; written
     to ``out/fewshot.json`` and ``out/fewshot.png``. Every input is checked before any work."""
     from deformsim.learn.finetune import Recipe
@@ -126,11 +127,9 @@ def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, dr
     recipe = recipe or Recipe(part="head")
     inputs = _validate(real, model, out, ks, draws, seeds, curves, data, variant)
     bench = _Bench.prepare(inputs, recipe, curves, progress)
-    results = _summarise(inputs, bench, _loop(bench, inputs))
-    results["seconds"] = time.perf_counter() - start
-    write_json(inputs.out / "fewshot.json", results)
-    curves = {c: [CurveRow.model_validate(r, strict=False) for r in rows] for c, rows in results["curves"].items()}
-    write_bytes(inputs.out / "fewshot.png", fewshot_png(curves, TITLES))
+    results = made(FewshotFile, _summarise(inputs, bench, _loop(bench, inputs)) | {"seconds": time.perf_counter() - start})
+    results.write(inputs.out / "fewshot.json")
+    write_bytes(inputs.out / "fewshot.png", fewshot_png(results.curves, TITLES))
     return results
 
 
@@ -350,22 +349,7 @@ def _reset_head(net, seed: int) -> None:
                 layer.reset_parameters()
 
 
-def read_results(path: str | Path) -> dict:
-    """A ``fewshot.json`` checked against :class:`FewshotFile` (as the report shows it); one line naming the file and
-    its first bad value otherwise."""
-    from pydantic import ValidationError
-
-    from deformsim.records import load_json
-    from deformsim.schema import first_error, shown
-
-    refused = f"--fewshot {path} is not a deformsim few-shot result (bench fewshot's fewshot.json)"
-    raw, results = load_json(path, f"--fewshot {path}", refused, "run deformsim bench fewshot")
-    try:
-        FewshotFile.model_validate_json(raw)
-    except ValidationError as exc:
-        loc, msg, value = first_error(exc, results)
-        where = ".".join(map(str, loc)) or "the file"
-        got = "missing" if msg == "Field required" else f"{msg} (got {shown(value, 60)!r})" if isinstance(value, str) \
-            else f"{msg} (got {shown(value, 60)})"
-        raise UserError(f"{refused}: {where}: {got}") from None
-    return results
+def read_results(path: str | Path) -> FewshotFile:
+    """The ``fewshot.json`` at ``path`` (given as ``--fewshot``); one line naming the file and its first bad value
+    when it is none."""
+    return read_record(path, FewshotFile, f"--fewshot {path}")

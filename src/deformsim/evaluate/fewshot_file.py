@@ -1,24 +1,20 @@
 """``bench fewshot``'s ``fewshot.json`` as a typed record (:mod:`deformsim.evaluate.fewshot` writes and reads it; a
-report shows it)."""
+report shows it). A file without ``schema_version`` (written before 2026-12-07) reads as version 1."""
 
 from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import ConfigDict, Field
+from pydantic import Field
 
-from deformsim.schema import StrictModel
+from deformsim.records import Record, RecordFile
 
 CURVES = ("synthetic", "unadapted", "imagenet")
 Share = Annotated[float, Field(ge=0, le=1)]
 Count = Annotated[int, Field(ge=0, le=10**9)]
 
 
-class _File(StrictModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
-
-
-class CurveRow(_File):
+class CurveRow(Record):
     """One k of a curve: the mean scores over its runs, their 95 % intervals, the majority-class share."""
 
     k: Count
@@ -31,14 +27,16 @@ class CurveRow(_File):
     f1_interval: tuple[Share, Share]
 
 
-class Photos(_File):
+class Photos(Record):
     intact: Count
     deformed: Count
 
 
-class FewshotFile(_File):
+class FewshotFile(RecordFile):
     """``bench fewshot``'s ``fewshot.json``: what the report shows typed exactly; the rest of what it records
     may be missing (an older file) but has its type."""
+
+    WHAT = "few-shot result (bench fewshot's fewshot.json)"
 
     kind: Literal["fewshot"]
     real_dir: Annotated[str, Field(max_length=4096)]

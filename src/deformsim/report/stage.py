@@ -75,7 +75,6 @@ def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = Non
     shots = None
     if fewshot is not None:
         from deformsim.evaluate.fewshot import read_results
-        from deformsim.evaluate.fewshot_file import FewshotFile
 
         shots = read_results(fewshot)
         identity["inputs"]["fewshot"] = file_digest(fewshot)
@@ -85,7 +84,7 @@ def make_report(data: Path, cfg: TrainConfig, out: Path, real: Path | None = Non
     with replacing(out, identity, "report") as tmp:
         metrics = run_experiments(data, cfg, tmp, real_dir=real, progress=progress)
         if shots is not None:
-            metrics.fewshot = FewshotFile.model_validate(shots, strict=False)
+            metrics.fewshot = shots
             metrics.write(tmp / "metrics.json")
         write_report(metrics, tmp)
     return out / "report.html"
