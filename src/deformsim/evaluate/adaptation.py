@@ -156,7 +156,8 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     rows = {"unadapted": {**_row(y, stacked, threshold), "predictions": stacked.tolist()}}
     for name, probs in adapted.items():
         probs = np.array(probs)
-        rows[name] = {**_row(y, probs, threshold), "paired": _interval(probs, stacked, y, threshold, rng),
+        paired = {k: d.model_dump() for k, d in _interval(probs, stacked, y, threshold, rng).items()}
+        rows[name] = {**_row(y, probs, threshold), "paired": paired,
                       "prior": priors[name], "predictions": probs.tolist()}
         acc = rows[name]["paired"]["accuracy"]
         log.info("%s: accuracy %.3f (%+.1f points, %+.1f to %+.1f)", name, rows[name]["accuracy"], 100 * acc["diff"],
