@@ -30,7 +30,7 @@ from deformsim.dataset.tables import check_table, split
 from deformsim.errors import UserError
 from deformsim.learn import checkpoint
 from deformsim.learn.data import ImageSet, training_transform
-from deformsim.learn.device import pick_device, set_threads
+from deformsim.learn.device import adam, pick_device, set_threads
 from deformsim.learn.features import cached_stem, pass_size
 from deformsim.learn.models import LOGIT_EPS, DeformNet, build, members
 from deformsim.log import get_logger, progress_bar
@@ -178,7 +178,7 @@ def _adapt(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor, y: 
 
 
 def _optimiser(model: DeformNet, cfg: TrainConfig) -> torch.optim.Adam:
-    return torch.optim.Adam([p for p in model.parameters() if p.requires_grad], lr=cfg.lr)
+    return adam([p for p in model.parameters() if p.requires_grad], cfg.lr)
 
 
 def _fit_label(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor, val_rows: torch.Tensor,
