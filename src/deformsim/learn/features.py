@@ -125,6 +125,36 @@ def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, pro
     return torch.cat(out)
 
 
+def fill(models: list[DeformNet], paths: list[str], size: int, batch_size: int, progress: bool = False) -> None:
+    """Cache the stem activations of ``paths`` (as :func:`cached_stem` does) of several models (backbones) at once:
+    each image the cache lacks for one of them is decoded once for all."""
+    root = cache_dir() / "features"
+    todo = []  # (model, {path: cache file}) of the files not there yet
+    for model in models:
+        files = dict(zip(map(str, paths), (root / k for k in cache_key(model, paths, size))))
+        todo.append((model, {p: f for p, f in files.items() if not f.is_file()}))
+    need = list(dict.fromkeys(p for _, missing in todo for p in missing))
+    if not need:
+        return
+    per_pass = min(pass_size(m, size, batch_size) for m, _ in todo)
+    loader = torch.utils.data.DataLoader(ImageSet(need, size), batch_size=per_pass)
+    modes = [m.training for m, _ in todo]
+    for m, _ in todo:
+        m.eval()
+    with torch.inference_mode(), progress_bar(len(loader), "images", progress) as bar:
+        for start, x in zip(range(0, len(need), per_pass), loader):
+            batch = need[start:start + per_pass]
+            for model, missing in todo:
+                rows = [i for i, p in enumerate(batch) if p in missing]
+                if rows:
+                    feats = model.stem(x[rows].to(model.mean.device)).cpu()
+                    for i, t in zip(rows, feats):
+                        checkpoint.write(missing[batch[i]], t.clone())  # a view would save the whole batch's storage
+            bar.update()
+    for (m, _), mode in zip(todo, modes):
+        m.train(mode)
+
+
 def stem_shape(model: DeformNet, size: int) -> tuple[int, ...]:
     """The shape (C, H, W) of one image's stem activations at ``size``."""
     key = (model.backbone, model.cut, size)
