@@ -4,7 +4,8 @@
 
 For each backbone (random weights: timings do not depend on them, and the zoo's downloads need the internet):
 - ``stem``: the frozen layers once per image (what fills the feature cache), images decoded included, in
-  torch's default layout and in channels-last (the ratio says whether channels-last would pay here);
+  torch's default layout and in channels-last (the ratio says whether it pays: ``DeformNet.stem`` runs
+  channels-last where ``Backbone.channels_last`` says so);
 - ``frozen``: one training epoch on cached stem activations (the default mode: last conv + head);
 - ``finetune``: one training epoch through the whole network with augmentation, the last block trained.
 Each is the fastest of ``--repeats`` runs on n + n blob images (tests/learn/blobs.py), scaled to 1000 images.

@@ -54,6 +54,27 @@ def test_a_mixture_predicts_the_mean_of_its_backbones_models(mixture_dir, blobs,
                                           "val_acc": pytest.approx(np.mean((mean >= 0.5) == val["y"].to_numpy()))}
 
 
+def test_the_backbones_caches_fill_from_one_decoding_of_each_image(blobs, tmp_path, monkeypatch):
+    import deformsim.learn.data as data
+    from deformsim.learn.features import cached_stem, run_stem
+    from deformsim.learn.models import build
+
+    decoded = []
+    load = data.load_image
+    monkeypatch.setattr(data, "load_image", lambda path, *a, **k: decoded.append(path) or load(path, *a, **k))
+    monkeypatch.setenv("DEFORMSIM_CACHE", str(tmp_path / "cache"))  # nothing cached yet
+    cfg = TrainConfig(**{**CFG, "epochs": 1}, backbone="efficientnet_lite0", ensemble_backbones=["mobilenet_v2"])
+    fit(blobs, cfg, tmp_path / "m", progress=False)
+    assert sorted(decoded) == sorted(blobs["path"])
+    paths = list(blobs["path"][:8])
+    for backbone in ("efficientnet_lite0", "mobilenet_v2"):
+        model, _ = build(TrainConfig(**CFG, backbone=backbone))
+        decoded.clear()
+        cached = cached_stem(model, paths, 64, 16)
+        assert not decoded  # every image was in the cache
+        torch.testing.assert_close(cached, run_stem(model, paths, 64, 16), rtol=0, atol=1e-5)
+
+
 def test_onnx_of_a_mixture_agrees_with_torch(mixture_dir, blobs, tmp_path):
     paths = list(blobs["path"][::10])
     onnx_path = to_onnx(mixture_dir, tmp_path / "m.onnx")

@@ -1,4 +1,4 @@
-"""Where torch runs: the device and the number of CPU threads."""
+"""Where torch runs: the device, the number of CPU threads, and the optimiser's kernel."""
 
 from __future__ import annotations
 
@@ -18,3 +18,9 @@ def pick_device(name: str) -> torch.device:
     if name == "cuda" and not torch.cuda.is_available():
         raise UserError("train.device is cuda but torch sees no CUDA GPU (use auto or cpu)")
     return torch.device("cuda" if name == "cuda" or (name == "auto" and torch.cuda.is_available()) else "cpu")
+
+
+def adam(params, lr: float) -> torch.optim.Adam:
+    """Adam over ``params`` in one fused kernel per step (CPU and CUDA): the same update as the per-tensor loop, in a
+    fraction of its time (VGG-16's last conv has 2.4 million weights)."""
+    return torch.optim.Adam(params, lr=lr, fused=True)

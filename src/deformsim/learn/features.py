@@ -4,9 +4,10 @@ Every model built from the same backbone weights shares its frozen stem, so the 
 ``cache_dir()/features/<backbone>-<size>[-<crop>][-flip]-<stem hash>/<image hash>.pt`` holds one image's
 activations entering the first trainable layer (of the image as the test-time crop and mirror show it), in float32
 so cached predictions equal uncached ones (and the ONNX export) to 1e-5. The stem hash covers the frozen weights
-themselves and ``grey``; the image hash the image file's bytes (sha256) and the version of the image loader, so a
-rewritten image (even one copied over another with the same size and time), other weights or another decoding make
-new files, and identical images share one. Training, prediction and PCA features of every run read the same files.
+themselves, ``grey`` and the stem's memory layout (channels-last rounds differently); the image hash the image file's
+bytes (sha256) and the version of the image loader, so a rewritten image (even one copied over another with the same
+size and time), other weights or another decoding make new files, and identical images share one. Training,
+prediction and PCA features of every run read the same files.
 An entry that is not a finite float32 tensor of the stem's shape is computed again and replaced.
 
 Memory is bounded whatever ``image_size``: images go through the frozen layers in passes of at most
@@ -27,6 +28,7 @@ from deformsim.dataset.images import LOADER_VERSION
 from deformsim.errors import UserError
 from deformsim.identity import file_digest
 from deformsim.learn import checkpoint
+from deformsim.learn.backbones import BACKBONES
 from deformsim.learn.data import ImageSet
 from deformsim.learn.models import DeformNet
 from deformsim.log import progress_bar
@@ -39,14 +41,15 @@ PASS_BUDGET = 512 << 20  # bytes of activations one pass through the frozen laye
 
 
 def stem_hash(model: DeformNet) -> str:
-    """sha256 of the backbone name, the cut, ``grey`` and the frozen weights; recomputed only when those tensors
-    change."""
+    """sha256 of the backbone name, the cut, ``grey``, the stem's layout and the frozen weights; recomputed only when those
+    tensors change."""
     state = model.features[: model.cut].state_dict()
     versions = tuple((t.data_ptr(), t._version) for t in state.values())
     memo = _STEM_HASHES.get(model)
     if memo is not None and memo[0] == versions:
         return memo[1]
-    h = hashlib.sha256(f"{model.backbone}|cut={model.cut}{'|grey' if model.grey else ''}".encode())
+    layout = "|channels_last" if BACKBONES[model.backbone].channels_last else ""
+    h = hashlib.sha256(f"{model.backbone}|cut={model.cut}{'|grey' if model.grey else ''}{layout}".encode())
     for name, t in state.items():
         h.update(name.encode())
         h.update(t.detach().cpu().contiguous().numpy().tobytes())
@@ -120,6 +123,36 @@ def run_stem(model: DeformNet, paths: list[str], size: int, batch_size: int, pro
             bar.update()
     model.train(was_training)
     return torch.cat(out)
+
+
+def fill(models: list[DeformNet], paths: list[str], size: int, batch_size: int, progress: bool = False) -> None:
+    """Cache the stem activations of ``paths`` (as :func:`cached_stem` does) of several models (backbones) at once:
+    each image the cache lacks for one of them is decoded once for all."""
+    root = cache_dir() / "features"
+    todo = []  # (model, {path: cache file}) of the files not there yet
+    for model in models:
+        files = dict(zip(map(str, paths), (root / k for k in cache_key(model, paths, size))))
+        todo.append((model, {p: f for p, f in files.items() if not f.is_file()}))
+    need = list(dict.fromkeys(p for _, missing in todo for p in missing))
+    if not need:
+        return
+    per_pass = min(pass_size(m, size, batch_size) for m, _ in todo)
+    loader = torch.utils.data.DataLoader(ImageSet(need, size), batch_size=per_pass)
+    modes = [m.training for m, _ in todo]
+    for m, _ in todo:
+        m.eval()
+    with torch.inference_mode(), progress_bar(len(loader), "images", progress) as bar:
+        for start, x in zip(range(0, len(need), per_pass), loader):
+            batch = need[start:start + per_pass]
+            for model, missing in todo:
+                rows = [i for i, p in enumerate(batch) if p in missing]
+                if rows:
+                    feats = model.stem(x[rows].to(model.mean.device)).cpu()
+                    for i, t in zip(rows, feats):
+                        checkpoint.write(missing[batch[i]], t.clone())  # a view would save the whole batch's storage
+            bar.update()
+    for (m, _), mode in zip(todo, modes):
+        m.train(mode)
 
 
 def stem_shape(model: DeformNet, size: int) -> tuple[int, ...]:

@@ -27,6 +27,7 @@ from torch import nn
 from deformsim.atomic import write_json
 from deformsim.errors import UserError
 from deformsim.identity import file_digest
+from deformsim.learn.device import adam
 from deformsim.learn.models import DeformNet, members
 from deformsim.log import get_logger
 from deformsim.schema import MAX_SEED, shown
@@ -130,7 +131,7 @@ def adapt(model: DeformNet, photos: torch.Tensor, y: torch.Tensor, recipe: Recip
         raise UserError(f"fine-tuning needs a model of train.target label, not {model.target}")
     device = model.mean.device
     params = [p for p in (model.parameters() if recipe.part == "tail" else model.head.parameters()) if p.requires_grad]
-    opt = torch.optim.Adam(params, lr=recipe.lr)
+    opt = adam(params, recipe.lr)
     order = torch.Generator().manual_seed(recipe.seed)
     y = y.float()
     losses = []

@@ -66,10 +66,14 @@ class DeformNet(nn.Module):
         return self
 
     def stem(self, x: torch.Tensor) -> torch.Tensor:
-        """Frozen part: 0-1 RGB images to the activations entering the first trainable layer."""
+        """Frozen part: 0-1 RGB images to the activations entering the first trainable layer (computed channels-last
+        where the backbone runs faster so, and returned in the default layout)."""
         if self.grey:
             x = (x * LUMA.to(x)).sum(1, keepdim=True).expand_as(x)
-        return self.features[: self.cut]((x - self.mean) / self.std)
+        x = (x - self.mean) / self.std
+        if BACKBONES[self.backbone].channels_last:
+            x = x.contiguous(memory_format=torch.channels_last)
+        return self.features[: self.cut](x).contiguous()
 
     def pooled_raw(self, z: torch.Tensor) -> torch.Tensor:
         """From stem activations to the pooled output of the trainable backbone layers (N, width)."""

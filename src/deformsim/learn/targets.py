@@ -24,6 +24,7 @@ from torch import nn
 
 from deformsim.config import TrainConfig
 from deformsim.errors import UserError
+from deformsim.learn.device import adam
 from deformsim.learn.heads import region_size
 from deformsim.learn.models import DeformNet
 from deformsim.log import get_logger, progress_bar
@@ -128,7 +129,7 @@ def fit_head(model: DeformNet, stems: torch.Tensor, table: pd.DataFrame, train_r
         known = y[train_rows]
         std = float(known.std()) if len(known) > 1 else 0.0
         model.scale.copy_(torch.tensor([float(known.mean()), std if std > 1e-6 else 1.0]))
-    opt = torch.optim.Adam([p for p in model.parameters() if p.requires_grad], lr=cfg.lr)
+    opt = adam([p for p in model.parameters() if p.requires_grad], cfg.lr)
     order = torch.Generator().manual_seed(cfg.seed)
     torch.manual_seed(cfg.seed)  # dropout draws from here
     history = []

@@ -29,8 +29,8 @@ from deformsim.dataset.tables import check_table, split
 from deformsim.errors import UserError
 from deformsim.learn import checkpoint
 from deformsim.learn.data import ImageSet, training_transform
-from deformsim.learn.device import pick_device, set_threads
-from deformsim.learn.features import cached_stem, pass_size
+from deformsim.learn.device import adam, pick_device, set_threads
+from deformsim.learn.features import cached_stem, fill, pass_size
 from deformsim.learn.models import LOGIT_EPS, DeformNet, build, members
 from deformsim.learn.train_file import TrainFile
 from deformsim.log import get_logger, progress_bar
@@ -180,7 +180,7 @@ def _adapt(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor, y: 
 
 
 def _optimiser(model: DeformNet, cfg: TrainConfig) -> torch.optim.Adam:
-    return torch.optim.Adam([p for p in model.parameters() if p.requires_grad], lr=cfg.lr)
+    return adam([p for p in model.parameters() if p.requires_grad], cfg.lr)
 
 
 def _fit_label(model: DeformNet, opt, inputs: _Inputs, train_rows: torch.Tensor, val_rows: torch.Tensor,
@@ -274,7 +274,7 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     ``adapt``: a folder of unlabelled real photos to adapt to (needs ``train.feature_norm``; labels never read).
     Other targets than ``label`` also need the table's dense columns (:func:`deformsim.learn.targets.check_target`).
     With ``train.ensemble_backbones`` each further backbone's model trains the same way and is saved beside the first
-    (``mixture``), which then predicts their mean probability.
+    (``mixture``), which then predicts their mean probability; their feature caches fill from one decoding of each image.
     """
     from deformsim.learn.targets import check_target, output_names
 
@@ -288,12 +288,17 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     table = table.reset_index(drop=True)
     outputs = output_names(table, cfg.target)
     cfgs = [cfg] + [cfg.model_copy(update={"backbone": b, "ensemble_backbones": []}) for b in cfg.ensemble_backbones]
+    built = [build(c, outputs=len(outputs)) for c in cfgs]
+    if len(cfgs) > 1 and cfg.cache_features and training_transform(cfg.augment, cfg.random_conv, cfg.image_size) is None:
+        for model, _ in built:  # every backbone's stem reads each image decoded once
+            model.to(pick_device(cfg.device))
+        fill([m for m, _ in built], list(table["path"]) + adapt_paths, cfg.image_size, cfg.batch_size, progress)
     trained = []
-    for c in cfgs:
+    for c, model in zip(cfgs, built):
         if len(cfgs) > 1:
             log.info("backbone %s (%d of %d)", c.backbone, len(trained) + 1, len(cfgs))
         t0 = time.perf_counter()
-        trained.append(_train(table, c, outputs, progress, adapt, adapt_paths))
+        trained.append(_train(table, c, model, progress, adapt, adapt_paths))
         train_rows, val_rows = trained[-1].splits[0]
         _log_summary(trained[-1].history, c, len(train_rows), len(val_rows), time.perf_counter() - t0)
     first = trained[0]
@@ -330,13 +335,13 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
     return TrainResult(model_path, first.history, " + ".join(t.weights for t in trained), seconds, held_out, record)
 
 
-def _train(table: pd.DataFrame, cfg: TrainConfig, outputs: list[str], progress: bool, adapt: Path | None,
+def _train(table: pd.DataFrame, cfg: TrainConfig, built: tuple[DeformNet, str], progress: bool, adapt: Path | None,
            adapt_paths: list[str]) -> _Trained:
-    """Build and train ``cfg.backbone``'s model (its ``train.ensemble`` members) on ``table``."""
+    """Train ``cfg.backbone``'s model (its ``train.ensemble`` members; :func:`build`'s model and weights) on ``table``."""
     from deformsim.learn.targets import fit_head
 
     device = pick_device(cfg.device)
-    model, weights = build(cfg, outputs=len(outputs))
+    model, weights = built
     model.to(device)
     y = torch.tensor(table["y"].to_numpy(dtype="float32"), device=device)
     inputs = _Inputs(model, list(table["path"]), cfg, device, progress)
