@@ -106,8 +106,8 @@ def face_camera(wall, camera, target, distance: float) -> bool:
 
 def render_scene(scene, plane, world, target: Path, last: bool = True) -> tuple[np.ndarray, float]:
     """Render the surface scene of the scene's camera (plane shown, HDRI seen beyond it); return (RGB, seconds).
-
-    ``last``: see :func:`deformsim.blender.scene.ground.plane_shown`."""
+    The world keeps showing the HDRI to the camera afterwards, so the pass's next camera reuses Cycles' light
+    importance map: the caller puts it back. ``last``: see :func:`deformsim.blender.scene.ground.plane_shown`."""
     scene.render.film_transparent = False
     world.camera_sees_hdri(True)
     try:
@@ -115,7 +115,6 @@ def render_scene(scene, plane, world, target: Path, last: bool = True) -> tuple[
             pixels, seconds = render_to_array(scene, target)
     finally:
         scene.render.film_transparent = True
-        world.camera_sees_hdri(False)
     return pixels[..., :3], seconds
 
 
@@ -138,14 +137,16 @@ class Surface(Feature):
         self.target = target
 
     def render_pass(self, c: int, path: Path, last: bool) -> tuple[np.ndarray, float]:
-        if self.wall is None:
-            return render_scene(self.ctx.scene, self.plane, self.ctx.world, path, last=last)
-        distance = self.ctx.cfg.render.surface.backdrop * REFERENCE_SIZE * self.ctx.camera_scale
-        face_camera(self.wall, self.ctx.scene.camera, self.target, distance)
+        if self.wall is not None:
+            distance = self.ctx.cfg.render.surface.backdrop * REFERENCE_SIZE * self.ctx.camera_scale
+            face_camera(self.wall, self.ctx.scene.camera, self.target, distance)
         try:
             return render_scene(self.ctx.scene, self.plane, self.ctx.world, path, last=last)
         finally:
-            self.wall.hide_render = True
+            if self.wall is not None:
+                self.wall.hide_render = True
+            if c == len(self.ctx.cameras) - 1:  # the pass's last camera: the next render sees the flat colour again
+                self.ctx.world.camera_sees_hdri(False)
 
 
 def _linear(rgb) -> tuple[float, float, float]:

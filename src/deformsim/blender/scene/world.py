@@ -47,9 +47,14 @@ class World:
         self.flat_bg.inputs["Strength"].default_value = 1.0
         self.set_camera_color((0.0, 0.0, 0.0))
         self.mix, self.is_camera = mix, path
+        self.sees_hdri = False
 
     def camera_sees_hdri(self, on: bool) -> None:
-        """Camera rays see the HDRI itself (a rendered scene's sky) instead of the flat colour, or back."""
+        """Camera rays see the HDRI itself (a rendered scene's sky) instead of the flat colour, or back. Only a change
+        edits the shader: each edit makes Cycles rebuild the world's light importance map at the next render."""
+        if on == self.sees_hdri:
+            return
+        self.sees_hdri = on
         fac = self.mix.inputs["Fac"]
         for link in list(fac.links):
             self.mix.id_data.links.remove(link)
@@ -58,6 +63,8 @@ class World:
             self.mix.id_data.links.new(self.is_camera.outputs["Is Camera Ray"], fac)
 
     def set(self, hdri: str, rotation_deg: float, strength: float) -> None:
+        """A sample's HDRI, seen by camera rays as the flat colour until a pass asks for it (:meth:`camera_sees_hdri`)."""
+        self.camera_sees_hdri(False)
         self.env.image = self._image(hdri)
         self.mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(rotation_deg))
         self.hdri_bg.inputs["Strength"].default_value = strength
