@@ -91,7 +91,7 @@ def main() -> None:
     from deformsim.config import load_config
     from deformsim.dataset.real import real_table
     from deformsim.errors import UserError
-    from deformsim.evaluate.paired import _interval
+    from deformsim.evaluate.paired import paired_differences
 
     if args.baseline and len(args.baseline) != len(args.data):
         raise UserError(f"--baseline needs one evaluation per DATA ({len(args.data)}), got {len(args.baseline)}")
@@ -119,21 +119,21 @@ def main() -> None:
     print("|---|---|---|---|---|" + ("---|---|" if base is not None else ""))
     for e in range(cfg.epochs):
         prob = np.stack([r[e][1] for r in runs])
-        d = _interval(prob, full, y, cfg.threshold, rng)
+        d = paired_differences(prob, full, y, cfg.threshold, rng)
         acc = float(((prob >= cfg.threshold) == y).mean())
         held = np.mean([r[e][0] for r in runs])
         row = f"| {e + 1} | {held:.3f} | {acc:.3f} | {_shown(d['accuracy'])} | {_shown(d['f1'])} |"
         if base is not None:
-            b = _interval(prob, base, y, cfg.threshold, rng)
+            b = paired_differences(prob, base, y, cfg.threshold, rng)
             row += f" {_shown(b['accuracy'])} | {_shown(b['f1'])} |"
         print(row)
     if base is not None:
-        d = _interval(full, base, y, cfg.threshold, rng)
+        d = paired_differences(full, base, y, cfg.threshold, rng)
         print(f"{cfg.epochs} epochs against --baseline: " + ", ".join(f"{k} {_shown(d[k])}" for k in METRICS))
 
 
-def _shown(d: dict) -> str:
-    return f"{100 * d['diff']:+.1f} ({100 * d['low']:+.1f} to {100 * d['high']:+.1f})"
+def _shown(d) -> str:
+    return f"{100 * d.diff:+.1f} ({100 * d.low:+.1f} to {100 * d.high:+.1f})"
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ Two protocols, both reading the folder's labels for scoring only:
 
 Several models (one per render draw, say) are pooled: per method and protocol, accuracy, F1 and AUC as mean and
 standard deviation over the models, and the paired difference of each metric to the unadapted models with a 95 %
-bootstrap interval over the models and the photos (:func:`deformsim.evaluate.paired._interval`).
+bootstrap interval over the models and the photos (:func:`deformsim.evaluate.paired.paired_differences`).
 """
 
 from __future__ import annotations
@@ -113,7 +113,7 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     :mod:`deformsim.dataset.groups`); written to ``out/adapt.json``."""
     from deformsim.dataset.groups import photo_groups
     from deformsim.evaluate.fewshot import _table
-    from deformsim.evaluate.paired import _interval
+    from deformsim.evaluate.paired import paired_differences
     from deformsim.learn.adapt_stage import check_adaptable
     from deformsim.learn.predict import load
     from deformsim.outputs import check_folder_target
@@ -156,7 +156,7 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     rows = {"unadapted": {**_row(y, stacked, threshold), "predictions": stacked.tolist()}}
     for name, probs in adapted.items():
         probs = np.array(probs)
-        paired = {k: d.model_dump() for k, d in _interval(probs, stacked, y, threshold, rng).items()}
+        paired = {k: d.model_dump() for k, d in paired_differences(probs, stacked, y, threshold, rng).items()}
         rows[name] = {**_row(y, probs, threshold), "paired": paired,
                       "prior": priors[name], "predictions": probs.tolist()}
         acc = rows[name]["paired"]["accuracy"]

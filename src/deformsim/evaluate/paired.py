@@ -113,7 +113,7 @@ def _pairs(results: ResultsFile, baseline: ResultsFile, variant: str) -> list[tu
     return [(r, base[key(r)]) for r in results.of(variant) if key(r) in base]
 
 
-def _interval(new: np.ndarray, base: np.ndarray, y: np.ndarray, threshold: float,
+def paired_differences(new: np.ndarray, base: np.ndarray, y: np.ndarray, threshold: float,
               rng: np.random.Generator) -> dict[str, Difference]:
     """Observed mean difference per metric and its bootstrap interval over photos and pairs (rows of new/base); the
     resamples are scored in blocks of bounded size (:func:`~deformsim.evaluate.metrics.resample_blocks`)."""
@@ -137,7 +137,7 @@ def _interval(new: np.ndarray, base: np.ndarray, y: np.ndarray, threshold: float
 
 
 def compare(results: ResultsFile, baseline: ResultsFile, seed: int = 0) -> dict[str, Comparison]:
-    """Per variant of ``results``: its paired differences to ``baseline`` (:func:`_interval` per metric): run against
+    """Per variant of ``results``: its paired differences to ``baseline`` (:func:`paired_differences` per metric): run against
     run (``runs``), each draw's ensemble against the baseline's (``ensemble``), and each draw's ensemble against the
     baseline's single runs of that draw (``ensemble_vs_single``; against itself: what ensembling adds). One line when
     the two were not scored on the same photos or no run pairs."""
@@ -157,7 +157,7 @@ def compare(results: ResultsFile, baseline: ResultsFile, seed: int = 0) -> dict[
         ens_base = np.array([base[[_draw(r) == d for r, _ in pairs]].mean(0) for d in draws])
         ens_each = np.array([ens_new[draws.index(_draw(r))] for r, _ in pairs])
         out[variant] = Comparison(pairs=len(pairs), baseline_variant=pairs[0][1].variant,
-                                  runs=_interval(new, base, y, threshold, rng),
-                                  ensemble=_interval(ens_new, ens_base, y, threshold, rng),
-                                  ensemble_vs_single=_interval(ens_each, base, y, threshold, rng))
+                                  runs=paired_differences(new, base, y, threshold, rng),
+                                  ensemble=paired_differences(ens_new, ens_base, y, threshold, rng),
+                                  ensemble_vs_single=paired_differences(ens_each, base, y, threshold, rng))
     return out
