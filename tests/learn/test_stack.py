@@ -14,10 +14,12 @@ from typer.testing import CliRunner
 from deformsim.cli.app import app
 from deformsim.dataset.groups import photo_date, photo_groups
 from deformsim.errors import UserError
+from deformsim.learn.adapt_file import AdaptFile
 from deformsim.learn.adapt_stage import adapt_model
 from deformsim.learn.adapter import AdaptRecipe, sigmoid
 from deformsim.learn.predict import load
 from deformsim.learn.stack import fit_stack, folds_of
+from deformsim.records import read_record
 
 pytestmark = pytest.mark.torch
 
@@ -113,3 +115,5 @@ def test_cli_adapt_labelled_says_what_cross_validation_chose(trained, photos, tm
     assert done.exit_code == 0, done.output
     assert "adapted on 12 photos (12 labelled)" in done.output  # the labelled copies count once, as labelled
     assert "cross-validation over" in done.output or "kept the synthetic model" in done.output
+    written = read_record(tmp_path / "m2" / "adapt.json", AdaptFile)
+    assert (written.labelled, written.recipe.method, written.choice is not None) == (12, "stack", True)

@@ -14,12 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from deformsim.atomic import write_json
 from deformsim.errors import UserError
 from deformsim.identity import digest, file_digest
+from deformsim.learn.adapt_file import AdaptFile
 from deformsim.learn.adapter import MIN_PHOTOS, Adapter, AdaptRecipe, fit_adapter
 from deformsim.learn.stack import Choice, fit_stack
 from deformsim.log import get_logger
+from deformsim.records import made
 
 log = get_logger(__name__)
 
@@ -157,8 +158,8 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
         if known:
             adapted["adapted_on"] = sorted(set(ckpt.get("adapted_on", [])) | set(known_digests))
         checkpoint.write(tmp / checkpoint.MODEL_FILE, adapted)
-        write_json(tmp / "adapt.json", {"model": str(path), "groups": groups, "recipe": asdict(recipe),
-                                         "folders": {k: None if v is None else str(v) for k, v in sources.items()},
-                                         "protocol": "unlabelled photos' labels never read",
-                                         **{k: v for k, v in asdict(result).items() if k != "model_path"}})
+        made(AdaptFile, {"model": str(path), "groups": groups, "recipe": asdict(recipe),
+                         "folders": {k: None if v is None else str(v) for k, v in sources.items()},
+                         "protocol": "unlabelled photos' labels never read",
+                         **{k: v for k, v in asdict(result).items() if k != "model_path"}}).write(tmp / "adapt.json")
     return result
