@@ -4,7 +4,6 @@ are refused in one line before any work."""
 
 from __future__ import annotations
 
-import json
 import shutil
 from pathlib import Path
 
@@ -15,9 +14,13 @@ from typer.testing import CliRunner
 
 from deformsim.cli.app import app
 from deformsim.errors import UserError
+from deformsim.evaluate.adaptation_file import AdaptBenchFile
+from deformsim.evaluate.ceiling_file import CeilingFile
+from deformsim.learn.adapt_file import AdaptFile
 from deformsim.learn.adapt_stage import adapt_model
 from deformsim.learn.adapter import Adapter, AdaptRecipe, em_prior, fit_adapter, fit_logistic, sigmoid
 from deformsim.learn.predict import load
+from deformsim.records import read_record
 from tests.learn.blobs import make_blobs
 
 pytestmark = pytest.mark.torch
@@ -161,7 +164,9 @@ def test_cli_adapt_predict_adapt_and_benchmark(trained, photos, tmp_path):
     done = runner.invoke(app, ["adapt", str(trained), "--photos", str(root), "--out", str(tmp_path / "m2"),
                                "--no-progress"])
     assert done.exit_code == 0, done.output
-    assert "adapted on 12 photos" in done.output and (tmp_path / "m2" / "adapt.json").is_file()
+    assert "adapted on 12 photos" in done.output
+    written = read_record(tmp_path / "m2" / "adapt.json", AdaptFile)
+    assert (written.photos, written.labelled, written.recipe.method, written.folders.photos) == (12, 0, "probe", str(root))
     shown = runner.invoke(app, ["predict", str(trained), str(root), "--adapt"])
     assert shown.exit_code == 0, shown.output
     assert "an estimated" in shown.output
@@ -177,8 +182,8 @@ def test_cli_adapt_predict_adapt_and_benchmark(trained, photos, tmp_path):
     for row in ("unadapted", "probe transductive", "probe inductive", "prior inductive", "labelled probe",
                 "the rest unlabelled"):
         assert row in bench.output
-    kshot = json.loads((tmp_path / "b" / "adapt.json").read_text())["kshot"]
-    assert [(r["k"], r["runs"]) for r in kshot if r["curve"] == "unadapted"] == [(1, 2), (3, 2)]
+    kshot = read_record(tmp_path / "b" / "adapt.json", AdaptBenchFile).kshot
+    assert [(r.k, r.runs) for r in kshot if r.curve == "unadapted"] == [(1, 2), (3, 2)]
     refused = runner.invoke(app, ["bench", "adapt", str(trained), "--real", str(more), "--out", str(tmp_path / "c"),
                                   "--k", "10"])
     assert refused.exit_code in (1, 2) and "k must leave one to score" in refused.output
@@ -206,8 +211,8 @@ def test_bench_ceiling_cross_validates_frozen_features(blobs, tmp_path):
     done = runner.invoke(app, ["bench", "ceiling", "--real", str(root), "--out", str(tmp_path / "c"), "--backbones",
                                "efficientnet_lite0", "--sizes", "64", "--folds", "4"])
     assert done.exit_code == 0, done.output
-    (row,) = json.loads((tmp_path / "c" / "ceiling.json").read_text())["rows"]
-    assert row["backbone"] == "efficientnet_lite0" and row["size"] == 64 and row["accuracy"] > 0.8
+    (row,) = read_record(tmp_path / "c" / "ceiling.json", CeilingFile).rows
+    assert row.backbone == "efficientnet_lite0" and row.size == 64 and row.accuracy > 0.8
     for args, message in ((["--backbones", "resnet9"], "choose from"), (["--sizes", "16"], "must lie in"),
                           (["--sizes", "big"], "whole numbers")):
         bad = runner.invoke(app, ["bench", "ceiling", "--real", str(root), "--out", str(tmp_path / "d"), *args])

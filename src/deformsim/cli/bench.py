@@ -219,12 +219,11 @@ def ceiling(
     except ValueError:
         raise UserError(f"--sizes {sizes!r}: expected comma-separated whole numbers, e.g. 128,224") from None
     result = run_ceiling(real, out, [b.strip() for b in backbones.split(",") if b.strip()], size_list, folds, seed=seed)
-    table = Table(title=f"Frozen ImageNet features, {result['folds']}-fold logistic regression on {result['photos']} "
-                  f"photos (majority class {result['majority']:.3f})", header_style="bold")
+    table = Table(title=f"Frozen ImageNet features, {result.folds}-fold logistic regression on {result.photos} "
+                  f"photos (majority class {result.majority:.3f})", header_style="bold")
     for col in ("backbone", "size", "accuracy", "F1", "AUC"):
         table.add_column(col, justify="left" if col == "backbone" else "right")
-    for r in result["rows"]:
-        table.add_row(r["backbone"], str(r["size"]), f"{r['accuracy']:.3f}", f"{r['f1']:.3f}",
-                      "-" if r["auc"] is None else f"{r['auc']:.3f}")
+    for r in result.rows:
+        table.add_row(r.backbone, str(r.size), f"{r.accuracy:.3f}", f"{r.f1:.3f}", "-" if r.auc is None else f"{r.auc:.3f}")
     print_table(table, None)
     console.print(f"results: {out / 'ceiling.json'}", highlight=False, soft_wrap=True)

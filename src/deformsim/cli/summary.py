@@ -13,6 +13,7 @@ from rich.table import Table
 from deformsim.cli.common import console
 
 if TYPE_CHECKING:
+    from deformsim.evaluate.adaptation_file import AdaptBenchFile
     from deformsim.evaluate.fewshot_file import FewshotFile
     from deformsim.evaluate.metrics_file import Scores
     from deformsim.evaluate.results import Difference, ResultsFile, Spreads
@@ -148,33 +149,33 @@ def fewshot_summary(results: FewshotFile, plot: Path) -> None:
     console.print(f"[bold]plot:[/] {plot}", highlight=False, soft_wrap=True)
 
 
-def adaptation_summary(results: dict) -> None:
+def adaptation_summary(results: AdaptBenchFile) -> None:
     """Print the adaptation benchmark's rows: mean ± std over the models, and the paired difference in accuracy to
     the unadapted model."""
-    table = Table(title=f"{len(results['models'])} model(s) adapted to {results['photos']} unlabelled photos "
+    table = Table(title=f"{len(results.models)} model(s) adapted to {results.photos} unlabelled photos "
                   "(labels read only to score)", header_style="bold")
     for col in ("model", "accuracy", "F1", "AUC", "accuracy vs unadapted (95 % interval)", "estimated deformed"):
         table.add_column(col, justify="left" if col == "model" else "right")
 
     def spread(row, key):
-        return "-" if row[key] is None else f"{row[key]:.3f} ± {row[f'{key}_std']:.3f}"
+        value = getattr(row, key)
+        return "-" if value is None else f"{value:.3f} ± {getattr(row, f'{key}_std'):.3f}"
 
-    for name, row in results["rows"].items():
-        paired = row.get("paired", {}).get("accuracy")
-        diff = "" if paired is None else (f"{100 * paired['diff']:+.1f} ({100 * paired['low']:+.1f} to "
-                                          f"{100 * paired['high']:+.1f})")
-        prior = ", ".join(f"{v:.0%}" for priors in row.get("prior", []) for v in priors)
+    for name, row in results.rows.items():
+        paired = (row.paired or {}).get("accuracy")
+        diff = "" if paired is None else (f"{100 * paired.diff:+.1f} ({100 * paired.low:+.1f} to "
+                                          f"{100 * paired.high:+.1f})")
+        prior = ", ".join(f"{v:.0%}" for priors in row.prior or [] for v in priors)
         table.add_row(escape(name), spread(row, "accuracy"), spread(row, "f1"), spread(row, "auc"), diff, prior)
     print_table(table, None)
-    console.print(f"true share deformed {results['true_share']:.0%}", highlight=False)
-    if results.get("kshot"):
-        kshot = Table(title=f"k labelled photos per class, scored on the rest ({results['draws']} draws per model)",
+    console.print(f"true share deformed {results.true_share:.0%}", highlight=False)
+    if results.kshot:
+        kshot = Table(title=f"k labelled photos per class, scored on the rest ({results.draws} draws per model)",
                       header_style="bold")
         for col in ("k", "model", "runs", "accuracy", "vs unadapted (95 % interval)"):
             kshot.add_column(col, justify="left" if col == "model" else "right")
-        for r in results["kshot"]:
-            paired = "" if "paired" not in r else (f"{100 * r['paired']:+.1f} ({100 * r['paired_interval'][0]:+.1f} "
-                                                    f"to {100 * r['paired_interval'][1]:+.1f})")
-            kshot.add_row(str(r["k"]), escape(r["curve"]), str(r["runs"]),
-                          f"{r['accuracy']:.3f} ± {r['accuracy_std']:.3f}", paired)
+        for r in results.kshot:
+            paired = "" if r.paired is None else (f"{100 * r.paired:+.1f} ({100 * r.paired_interval[0]:+.1f} "
+                                                  f"to {100 * r.paired_interval[1]:+.1f})")
+            kshot.add_row(str(r.k), escape(r.curve), str(r.runs), f"{r.accuracy:.3f} ± {r.accuracy_std:.3f}", paired)
         print_table(kshot, None)

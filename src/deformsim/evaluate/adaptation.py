@@ -20,10 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from deformsim.atomic import write_json
 from deformsim.errors import UserError
+from deformsim.evaluate.adaptation_file import AdaptBenchFile
 from deformsim.learn.adapter import MIN_PHOTOS, UNLABELLED, AdaptRecipe, fit_adapter
 from deformsim.log import get_logger
+from deformsim.records import made
 
 log = get_logger(__name__)
 
@@ -106,11 +107,11 @@ def kshot_curves(base: list[np.ndarray], features: list[np.ndarray], y: np.ndarr
 
 def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str, ...] = UNLABELLED, folds: int = 2,
                    recipe: AdaptRecipe = AdaptRecipe(), seed: int = 0, progress: bool = True, ks: list[int] = (),
-                   draws: int = 5, groups: str = "date") -> dict:
+                   draws: int = 5, groups: str = "date") -> AdaptBenchFile:
     """Every unlabelled method under both protocols on the labelled photos of ``real``, for each of ``models`` (e.g.
     one per render draw), pooled; with ``ks``, the k-photo curves (:func:`kshot_curves`, ``draws`` draws of the k
     photos per model; the shooting sessions ``groups``: ``date``, ``none`` or a CSV file, see
-    :mod:`deformsim.dataset.groups`); written to ``out/adapt.json``."""
+    :mod:`deformsim.dataset.groups`); written to ``out/adapt.json`` and returned."""
     from deformsim.dataset.groups import photo_groups
     from deformsim.evaluate.fewshot import _table
     from deformsim.evaluate.paired import paired_differences
@@ -163,10 +164,11 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
         log.info("%s: accuracy %.3f (%+.1f points, %+.1f to %+.1f)", name, rows[name]["accuracy"], 100 * acc["diff"],
                  100 * acc["low"], 100 * acc["high"])
     kshot = kshot_curves(base, feats, y, sessions, [k for k in ks if k > 0], draws, recipe, threshold, seed)
-    result = {"models": [str(m) for m in models], "real": str(real), "photos": len(paths), "folds": folds,
-              "seed": seed, "recipe": asdict(recipe), "true_share": float(y.mean()), "labels": y.tolist(),
-              "groups": groups, "sessions": sessions, "paths": [str(p) for p in paths], "rows": rows, "kshot": kshot,
-              "draws": draws, "seconds": time.perf_counter() - start}
+    result = made(AdaptBenchFile, {
+        "models": [str(m) for m in models], "real": str(real), "photos": len(paths), "folds": folds, "seed": seed,
+        "recipe": asdict(recipe), "true_share": float(y.mean()), "labels": y.tolist(), "groups": groups,
+        "sessions": sessions, "paths": [str(p) for p in paths], "rows": rows, "kshot": kshot, "draws": draws,
+        "seconds": time.perf_counter() - start})
     out.mkdir(parents=True, exist_ok=True)
-    write_json(out / "adapt.json", result)
+    result.write(out / "adapt.json")
     return result

@@ -16,9 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from deformsim.atomic import write_json
 from deformsim.errors import UserError
+from deformsim.evaluate.ceiling_file import CeilingFile
 from deformsim.log import get_logger
+from deformsim.records import made
 
 log = get_logger(__name__)
 
@@ -63,8 +64,9 @@ def cross_validated(x: np.ndarray, y: np.ndarray, folds: int, l2: float, seed: i
 
 
 def run_ceiling(real: Path, out: Path, backbones: list[str], sizes: list[int], folds: int = 5, l2: float = 0.1,
-                seed: int = 0) -> dict:
-    """Every backbone at every size on the labelled photos of ``real``; written to ``out/ceiling.json``."""
+                seed: int = 0) -> CeilingFile:
+    """Every backbone at every size on the labelled photos of ``real``; written to ``out/ceiling.json`` and
+    returned."""
     from deformsim.evaluate.fewshot import _table
     from deformsim.evaluate.metrics import compute_metrics
     from deformsim.learn.backbones import BACKBONES
@@ -93,8 +95,9 @@ def run_ceiling(real: Path, out: Path, backbones: list[str], sizes: list[int], f
             rows.append({"backbone": backbone, "size": size, "weights": weights, "features": features.shape[1],
                          "accuracy": m["accuracy"], "f1": m["f1"], "auc": m["auc"]})
             log.info("%s at %d px: cross-validated accuracy %.3f, AUC %s", backbone, size, m["accuracy"], m["auc"])
-    result = {"real": str(real), "photos": len(paths), "folds": folds, "l2": l2, "seed": seed,
-              "majority": float(max(y.mean(), 1 - y.mean())), "rows": rows, "seconds": time.perf_counter() - start}
+    result = made(CeilingFile, {"real": str(real), "photos": len(paths), "folds": folds, "l2": l2, "seed": seed,
+                                "majority": float(max(y.mean(), 1 - y.mean())), "rows": rows,
+                                "seconds": time.perf_counter() - start})
     out.mkdir(parents=True, exist_ok=True)
-    write_json(out / "ceiling.json", result)
+    result.write(out / "ceiling.json")
     return result
