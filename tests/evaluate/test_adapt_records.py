@@ -42,9 +42,9 @@ def _ceiling() -> dict:
     """A ceiling.json's content as run_ceiling builds it."""
     return {"real": "real", "photos": 40, "folds": 5, "l2": 0.1, "seed": 0, "majority": 0.55, "seconds": 12.0,
             "rows": [{"backbone": "vgg16", "size": 128, "weights": "torchvision", "features": 512, "accuracy": 0.8,
-                      "f1": 0.78, "auc": 0.86},
+                      "f1": 0.78, "auc": 0.86, "seconds_per_photo": 0.021},
                      {"backbone": "efficientnet_lite0", "size": 224, "weights": "timm", "features": 1280,
-                      "accuracy": 0.5, "f1": 0.0, "auc": None}]}
+                      "accuracy": 0.5, "f1": 0.0, "auc": None, "seconds_per_photo": 0.008}]}
 
 
 RECORDS = [(AdaptBenchFile, _adapt_bench, "adapt.json"), (CeilingFile, _ceiling, "ceiling.json")]
@@ -71,6 +71,14 @@ def test_the_adaptation_rows_read_as_attributes():
     assert probe.paired["accuracy"].diff > 0 and probe.prior == [[0.5], [0.45]]
     assert [(r.k, r.curve, r.paired is None) for r in record.kshot][:2] == [(2, "unadapted", True),
                                                                           (2, "labelled probe", False)]
+
+
+def test_a_ceiling_row_before_seconds_per_photo_reads_without_it(tmp_path):
+    data = _ceiling()
+    del data["rows"][0]["seconds_per_photo"]
+    (tmp_path / "ceiling.json").write_text(json.dumps(data))
+    rows = read_record(tmp_path / "ceiling.json", CeilingFile).rows
+    assert [r.seconds_per_photo for r in rows] == [None, 0.008]
 
 
 @pytest.mark.parametrize("model, content, name", RECORDS)

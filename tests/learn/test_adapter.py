@@ -213,6 +213,7 @@ def test_bench_ceiling_cross_validates_frozen_features(blobs, tmp_path):
     assert done.exit_code == 0, done.output
     (row,) = read_record(tmp_path / "c" / "ceiling.json", CeilingFile).rows
     assert row.backbone == "efficientnet_lite0" and row.size == 64 and row.accuracy > 0.8
+    assert "s/photo" in done.output and 0 < row.seconds_per_photo < 60  # what the features of a photo cost
     for args, message in ((["--backbones", "resnet9"], "choose from"), (["--sizes", "16"], "must lie in"),
                           (["--sizes", "big"], "whole numbers")):
         bad = runner.invoke(app, ["bench", "ceiling", "--real", str(root), "--out", str(tmp_path / "d"), *args])

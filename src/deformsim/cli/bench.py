@@ -221,9 +221,10 @@ def ceiling(
     result = run_ceiling(real, out, [b.strip() for b in backbones.split(",") if b.strip()], size_list, folds, seed=seed)
     table = Table(title=f"Frozen ImageNet features, {result.folds}-fold logistic regression on {result.photos} "
                   f"photos (majority class {result.majority:.3f})", header_style="bold")
-    for col in ("backbone", "size", "accuracy", "F1", "AUC"):
+    for col in ("backbone", "size", "accuracy", "F1", "AUC", "s/photo"):
         table.add_column(col, justify="left" if col == "backbone" else "right")
     for r in result.rows:
-        table.add_row(r.backbone, str(r.size), f"{r.accuracy:.3f}", f"{r.f1:.3f}", "-" if r.auc is None else f"{r.auc:.3f}")
+        table.add_row(r.backbone, str(r.size), f"{r.accuracy:.3f}", f"{r.f1:.3f}", "-" if r.auc is None else f"{r.auc:.3f}",
+                      "-" if r.seconds_per_photo is None else f"{r.seconds_per_photo:.3f}")
     print_table(table, None)
     console.print(f"results: {out / 'ceiling.json'}", highlight=False, soft_wrap=True)

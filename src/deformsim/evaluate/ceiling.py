@@ -89,11 +89,13 @@ def run_ceiling(real: Path, out: Path, backbones: list[str], sizes: list[int], f
     rows = []
     for backbone in backbones:
         for size in sizes:
+            began = time.perf_counter()
             features, weights = frozen_features(backbone, size, paths)
+            per_photo = (time.perf_counter() - began) / len(paths)
             p = cross_validated(features, y, folds, l2, seed)
             m = compute_metrics(y, p, 0.5)
             rows.append({"backbone": backbone, "size": size, "weights": weights, "features": features.shape[1],
-                         "accuracy": m["accuracy"], "f1": m["f1"], "auc": m["auc"]})
+                         "accuracy": m["accuracy"], "f1": m["f1"], "auc": m["auc"], "seconds_per_photo": per_photo})
             log.info("%s at %d px: cross-validated accuracy %.3f, AUC %s", backbone, size, m["accuracy"], m["auc"])
     result = made(CeilingFile, {"real": str(real), "photos": len(paths), "folds": folds, "l2": l2, "seed": seed,
                                 "majority": float(max(y.mean(), 1 - y.mean())), "rows": rows,

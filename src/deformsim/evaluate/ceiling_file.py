@@ -10,8 +10,9 @@ from deformsim.records import Record, RecordFile
 
 
 class CeilingRow(Record):
-    """A backbone at an input size: where its weights came from, its feature count, and the cross-validated scores
-    (``auc`` None without both classes)."""
+    """A backbone at an input size: where its weights came from, its feature count, the cross-validated scores
+    (``auc`` None without both classes) and the seconds per photo its features took (stems cached by an earlier run
+    are read, not computed; None in a file before 2026-12-07)."""
 
     backbone: str
     size: int
@@ -20,6 +21,7 @@ class CeilingRow(Record):
     accuracy: float
     f1: float
     auc: Optional[float]
+    seconds_per_photo: Optional[float] = None
 
 
 class CeilingFile(RecordFile):
