@@ -131,7 +131,8 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
     ckpt, path = checkpoint.read_checkpoint(model)
     known, y, known_digests = labelled_photos(labelled) if labelled is not None else ([], np.zeros(0, int), [])
     paths, digests = unlabelled_photos(photos) if photos is not None else ([], [])
-    kept = [i for i, d in enumerate(digests) if d not in set(known_digests)]  # a labelled photo counts as labelled
+    seen = set(known_digests)
+    kept = [i for i, d in enumerate(digests) if d not in seen]  # a labelled photo counts as labelled
     paths, digests = [paths[i] for i in kept], [digests[i] for i in kept]
     sources = {"photos": photos, "labelled": labelled}
     check_apart(out, "--out", {"model": path, **{k: v for k, v in sources.items() if v is not None}})
