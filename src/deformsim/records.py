@@ -8,12 +8,13 @@ value of the wrong type, a key the model lacks, a newer ``schema_version``) is r
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Annotated, ClassVar, TypeVar
 
 from pydantic import ConfigDict, Field, StrictInt, ValidationError
 
-from deformsim.atomic import write_json
+from deformsim.atomic import printable, write_json
 from deformsim.errors import UserError
 from deformsim.schema import StrictModel, first_error, shown
 
@@ -68,6 +69,20 @@ def load_json(path: str | Path, name: str, refused: str, missing: str) -> tuple[
         raise UserError(f"{refused}: {'nested too deeply' if isinstance(exc, RecursionError) else 'not JSON'}") from None
 
 
+_LONE_SURROGATE = re.compile(rb"\\u[dD][89a-fA-F]")
+
+
+def _printable(data):
+    """``data`` with every string in :func:`deformsim.atomic.printable` form (a file name's non-UTF-8 bytes as ``\\xNN``)."""
+    if isinstance(data, str):
+        return printable(data)
+    if isinstance(data, list):
+        return [_printable(v) for v in data]
+    if isinstance(data, dict):
+        return {printable(k): _printable(v) for k, v in data.items()}
+    return data
+
+
 def read_record(path: str | Path, model: type[R], name: str | None = None) -> R:
     """The record ``model`` in the JSON file ``path``; one line naming the file (as ``name``, default its path) when
     it is none."""
@@ -80,6 +95,8 @@ def read_record(path: str | Path, model: type[R], name: str | None = None) -> R:
     if type(version) is int and version > model.VERSION:
         raise UserError(f"{name} has schema_version {version}, newer than this deformsim reads ({model.VERSION}): "
                         "upgrade deformsim to read it")
+    if _LONE_SURROGATE.search(raw):  # a non-UTF-8 file name, which json reads but pydantic's parser refuses
+        raw = json.dumps(_printable(data)).encode()
     try:
         return model.model_validate_json(raw)
     except RecursionError:

@@ -241,12 +241,14 @@ def test_predict_on_a_run_or_report_folder_names_its_model(model_dir, blobs, tmp
     import json
     import shutil
 
+    from tests.report.made import experiment, metrics_file
+
     report = tmp_path / "run" / "report"
     shutil.copytree(model_dir, report / "models" / "procedural_split")
-    m = {"n": 8, "accuracy": 0.9}
-    (report / "metrics.json").write_text(json.dumps({"variants": {
-        "black": {"split": {"metrics": {**m, "accuracy": 0.7}, "model": "models/black_split"}},
-        "procedural": {"split": {"metrics": m, "model": "models/procedural_split"}}}}))
+    y = [0, 0, 1, 1]
+    (report / "metrics.json").write_text(json.dumps(metrics_file({  # procedural scores best: the headline test
+        "black": {"n_images": 8, "split": experiment(y, [0.6, 0.4, 0.4, 0.6], "models/black_split/model.pt")},
+        "procedural": {"n_images": 8, "split": experiment(y, [0.1, 0.2, 0.8, 0.9], "models/procedural_split/model.pt")}})))
     photo = blobs["path"][0]
     res = _predict(report, photo)
     assert res.exit_code == 2 and " ".join(res.output.split()) == (
