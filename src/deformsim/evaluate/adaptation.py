@@ -153,11 +153,11 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
                 adapted.setdefault(f"{method} {protocol}", []).append(p)
                 priors.setdefault(f"{method} {protocol}", []).append(prior)
     rng = np.random.default_rng(seed)
-    stacked = np.array(base)
-    rows = {"unadapted": {**_row(y, stacked, threshold), "predictions": stacked.tolist()}}
+    unadapted = np.array(base)
+    rows = {"unadapted": {**_row(y, unadapted, threshold), "predictions": unadapted.tolist()}}
     for name, probs in adapted.items():
         probs = np.array(probs)
-        paired = {k: d.model_dump() for k, d in paired_differences(probs, stacked, y, threshold, rng).items()}
+        paired = {k: d.model_dump() for k, d in paired_differences(probs, unadapted, y, threshold, rng).items()}
         rows[name] = {**_row(y, probs, threshold), "paired": paired,
                       "prior": priors[name], "predictions": probs.tolist()}
         acc = rows[name]["paired"]["accuracy"]
