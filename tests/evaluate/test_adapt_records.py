@@ -32,7 +32,7 @@ def _adapt_bench() -> dict:
             "probe transductive": {**_row(y, adapted, 0.5), "paired": paired, "prior": [[0.5], [0.45]],
                                    "predictions": adapted.tolist()}}
     return {"models": ["m0/model.pt", "m1/model.pt"], "real": "real", "photos": 20, "folds": 2, "seed": 0,
-            "recipe": asdict(AdaptRecipe()), "true_share": 0.5, "labels": y.tolist(), "groups": "date",
+            "recipe": asdict(AdaptRecipe()), "true_share": 0.5, "labels": y.tolist(), "groups": "date", "biased": False,
             "sessions": sessions, "paths": [f"real/{i}.png" for i in range(20)], "rows": rows,
             "kshot": kshot_curves(list(base), features, y, sessions, [2], 1, AdaptRecipe(), 0.5, 0), "draws": 1,
             "seconds": 2.5}

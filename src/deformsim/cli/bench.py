@@ -182,6 +182,9 @@ def adapt(
     draws: int = typer.Option(5, "--draws", help="draws of the k photos per model"),
     groups: str = typer.Option("date", "--groups", help="shooting sessions of the photos, which the stacked curve's "
                                "cross-validation keeps apart: date (EXIF or file name), none, or a path,group CSV file"),
+    biased: bool = typer.Option(False, "--biased", help="draw the k photos as a biased sample: the intact ones from the "
+                                "warmer-lit half of the folder and the deformed ones from the cooler half (the reverse "
+                                "in every other draw)"),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:
     """Adapt a model to real photos without their labels, transductive (adapted on the photos it is scored on) and
@@ -193,7 +196,7 @@ def adapt(
 
     result = run_adaptation(models, real, out, tuple(m.strip() for m in methods.split(",") if m.strip()), folds,
                             seed=seed, progress=progress, ks=parse_ks(k) if k else [], draws=draws,
-                            groups=groups)
+                            groups=groups, biased=biased)
     adaptation_summary(result)
     console.print(f"results: {out / 'adapt.json'}", highlight=False, soft_wrap=True)
 

@@ -170,7 +170,9 @@ def adaptation_summary(results: AdaptBenchFile) -> None:
     print_table(table, None)
     console.print(f"true share deformed {results.true_share:.0%}", highlight=False)
     if results.kshot:
-        kshot = Table(title=f"k labelled photos per class, scored on the rest ({results.draws} draws per model)",
+        sample = "a biased sample, each class from another lighting" if results.biased else "drawn at random"
+        kshot = Table(title=f"k labelled photos per class ({sample}), scored on the rest ({results.draws} draws per "
+                      "model)",
                       header_style="bold")
         for col in ("k", "model", "runs", "accuracy", "vs unadapted (95 % interval)"):
             kshot.add_column(col, justify="left" if col == "model" else "right")

@@ -7,6 +7,11 @@ Two protocols, both reading the folder's labels for scoring only:
 - ``inductive``: the photos split into ``folds`` by content (a seeded permutation of their sha256-ordered list, copies
   counted once); each fold scored by the model adapted on the other folds, so no photo is scored by a model that saw it.
 
+With ``ks``, k labelled photos of each class are drawn at random and the rest scored; ``biased`` draws them as a
+biased sample does instead: each class's k photos from a different lighting (the intact ones from the warmer half of
+the folder and the deformed ones from the cooler half, or the reverse in every other draw; :func:`warm_half`, from the
+photos' pixels), which a model fitted on them can mistake for the damage.
+
 Several models (one per render draw, say) are pooled: per method and protocol, accuracy, F1 and AUC as mean and
 standard deviation over the models, and the paired difference of each metric to the unadapted models with a 95 %
 bootstrap interval over the models and the photos (:func:`deformsim.evaluate.paired.paired_differences`).
@@ -64,16 +69,48 @@ def _row(y: np.ndarray, probs: np.ndarray, threshold: float) -> dict:
     return row
 
 
-def _kshot(p0: np.ndarray, features: np.ndarray, y: np.ndarray, groups: list[str], k: int, rng: np.random.Generator,
-           recipe: AdaptRecipe, threshold: float) -> dict[str, float]:
-    """Accuracy on the photos left after drawing k labelled ones of each class: the model unadapted, a probe fitted
-    on the k photos' labels alone, the probe fitted on them and the rest unlabelled (transductive), and the model
-    stacked with a residual fitted on the k photos (:mod:`deformsim.learn.stack`, their sessions ``groups``)."""
-    from deformsim.evaluate.fewshot import draw
+def warm_half(paths: list[str]) -> np.ndarray:
+    """Whether each photo is warmer-lit than the folder's median: its mean red minus mean blue (8-bit RGB, read at
+    most 256 px wide), above the median of the folder's."""
+    from PIL import Image
+
+    warmth = []
+    for path in paths:
+        with Image.open(path) as im:
+            im.draft("RGB", (256, 256))
+            rgb = np.asarray(im.convert("RGB"), dtype=np.float64)
+        warmth.append(rgb[..., 0].mean() - rgb[..., 2].mean())
+    warmth = np.array(warmth)
+    return warmth > np.median(warmth)
+
+
+def biased_draw(y: np.ndarray, k: int, warm: np.ndarray, intact_warm: bool,
+                rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of k photos of each class, the intact ones from the warm half (``intact_warm``, else the cool half) and the
+    deformed ones from the other, and the remaining rows (to score)."""
+    pools = [np.flatnonzero((y == c) & (warm == (intact_warm == (c == 0)))) for c in (0, 1)]
+    chosen = np.sort(np.concatenate([rng.choice(pool, size=k, replace=False) for pool in pools]))
+    return chosen.astype(int), np.setdiff1d(np.arange(len(y)), chosen)
+
+
+def _check_biased(y: np.ndarray, warm: np.ndarray, k: int, real: Path) -> None:
+    """One line when a class has fewer than k photos (and one to score) on a side of the lighting split."""
+    for c, name in ((0, "intact"), (1, "deformed")):
+        for side, light in ((True, "warm"), (False, "cool")):
+            held = int(((y == c) & (warm == side)).sum())
+            if held < k + 1:
+                raise UserError(f"--biased --k {k}: {real} holds {held} {light}-lit {name} photos; the biased draw "
+                                f"needs {k} and one left to score")
+
+
+def _kshot(p0: np.ndarray, features: np.ndarray, y: np.ndarray, groups: list[str], chosen: np.ndarray,
+           rest: np.ndarray, recipe: AdaptRecipe, threshold: float) -> dict[str, float]:
+    """Accuracy on the photos ``rest`` with the labelled photos ``chosen``: the model unadapted, a probe fitted on
+    the chosen photos' labels alone, the probe fitted on them and the rest unlabelled (transductive), and the model
+    stacked with a residual fitted on them (:mod:`deformsim.learn.stack`, their sessions ``groups``)."""
     from deformsim.learn.adapter import fit_logistic
     from deformsim.learn.stack import fit_stack
 
-    chosen, rest = draw(y, k, rng)
     labels = np.full(len(y), -1)
     labels[chosen] = y[chosen]
     x = (features - features.mean(0)) / (features.std(0) + 1e-6)  # the photos' pixels, not their labels
@@ -86,14 +123,21 @@ def _kshot(p0: np.ndarray, features: np.ndarray, y: np.ndarray, groups: list[str
 
 
 def kshot_curves(base: list[np.ndarray], features: list[np.ndarray], y: np.ndarray, groups: list[str], ks: list[int],
-                 draws: int, recipe: AdaptRecipe, threshold: float, seed: int) -> list[dict]:
+                 draws: int, recipe: AdaptRecipe, threshold: float, seed: int,
+                 warm: np.ndarray | None = None) -> list[dict]:
     """Per k and curve: mean accuracy over the models and draws, its standard deviation, and the mean paired
-    difference to the unadapted model on the same photos with a 95 % bootstrap interval over the runs."""
-    from deformsim.evaluate.fewshot import mean_interval
+    difference to the unadapted model on the same photos with a 95 % bootstrap interval over the runs. With ``warm``
+    (:func:`warm_half`), the k photos are a biased sample (:func:`biased_draw`, intact from the warm half in even
+    draws)."""
+    from deformsim.evaluate.fewshot import draw, mean_interval
+
+    def rows_of(k: int, d: int) -> tuple[np.ndarray, np.ndarray]:
+        rng = np.random.default_rng([seed, k, d])
+        return draw(y, k, rng) if warm is None else biased_draw(y, k, warm, d % 2 == 0, rng)
 
     rows = []
     for k in ks:
-        runs = [_kshot(p0, f, y, groups, k, np.random.default_rng([seed, k, d]), recipe, threshold)
+        runs = [_kshot(p0, f, y, groups, *rows_of(k, d), recipe, threshold)
                 for p0, f in zip(base, features) for d in range(draws)]
         for name in ("unadapted", *KSHOT):
             acc = [r[name] for r in runs]
@@ -107,11 +151,12 @@ def kshot_curves(base: list[np.ndarray], features: list[np.ndarray], y: np.ndarr
 
 def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str, ...] = UNLABELLED, folds: int = 2,
                    recipe: AdaptRecipe = AdaptRecipe(), seed: int = 0, progress: bool = True, ks: list[int] = (),
-                   draws: int = 5, groups: str = "date") -> AdaptBenchFile:
+                   draws: int = 5, groups: str = "date", biased: bool = False) -> AdaptBenchFile:
     """Every unlabelled method under both protocols on the labelled photos of ``real``, for each of ``models`` (e.g.
     one per render draw), pooled; with ``ks``, the k-photo curves (:func:`kshot_curves`, ``draws`` draws of the k
     photos per model; the shooting sessions ``groups``: ``date``, ``none`` or a CSV file, see
-    :mod:`deformsim.dataset.groups`); written to ``out/adapt.json`` and returned."""
+    :mod:`deformsim.dataset.groups`; ``biased``: each class's k photos from a different lighting, :func:`biased_draw`);
+    written to ``out/adapt.json`` and returned."""
     from deformsim.dataset.groups import photo_groups
     from deformsim.evaluate.fewshot import _table
     from deformsim.evaluate.paired import paired_differences
@@ -132,6 +177,11 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     fewest = int(min(table["y"].sum(), (1 - table["y"]).sum()))
     if ks and max(ks) >= fewest:
         raise UserError(f"--k {max(ks)}: {real} holds {fewest} photos of its smaller class; k must leave one to score")
+    if biased and not ks:
+        raise UserError("--biased draws the k labelled photos: give --k too")
+    warm = warm_half(list(table["path"])) if biased else None
+    for k in ks if biased else ():
+        _check_biased(table["y"].to_numpy(), warm, k, real)
     if len(table) < folds * MIN_PHOTOS:
         raise UserError(f"{real} holds {len(table)} distinct photos: {folds} folds of at least {MIN_PHOTOS} needs "
                         f"{folds * MIN_PHOTOS}")
@@ -163,12 +213,12 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
         acc = rows[name]["paired"]["accuracy"]
         log.info("%s: accuracy %.3f (%+.1f points, %+.1f to %+.1f)", name, rows[name]["accuracy"], 100 * acc["diff"],
                  100 * acc["low"], 100 * acc["high"])
-    kshot = kshot_curves(base, feats, y, sessions, [k for k in ks if k > 0], draws, recipe, threshold, seed)
+    kshot = kshot_curves(base, feats, y, sessions, [k for k in ks if k > 0], draws, recipe, threshold, seed, warm)
     result = made(AdaptBenchFile, {
         "models": [str(m) for m in models], "real": str(real), "photos": len(paths), "folds": folds, "seed": seed,
         "recipe": asdict(recipe), "true_share": float(y.mean()), "labels": y.tolist(), "groups": groups,
-        "sessions": sessions, "paths": [str(p) for p in paths], "rows": rows, "kshot": kshot, "draws": draws,
-        "seconds": time.perf_counter() - start})
+        "biased": biased, "sessions": sessions, "paths": [str(p) for p in paths], "rows": rows, "kshot": kshot,
+        "draws": draws, "seconds": time.perf_counter() - start})
     out.mkdir(parents=True, exist_ok=True)
     result.write(out / "adapt.json")
     return result

@@ -56,6 +56,7 @@ class AdaptBenchFile(RecordFile):
     true_share: float
     labels: list[int]
     groups: str
+    biased: bool = False  # the k photos of each class drawn from a different lighting (bench adapt --biased)
     sessions: list[str]
     paths: list[str]
     rows: dict[str, Row]
