@@ -154,16 +154,17 @@ class Engine:
                            progress=self.progress, adapt=_path(adapt))
 
     def finetune(self, model: str | Path, real: str | Path, out: str | Path, data: str | Path | None = None,
-                 variant: str | None = None, recipe: Recipe | None = None, overwrite: bool = False):
+                 variant: str | None = None, recipe: Recipe | None = None, overwrite: bool = False,
+                 unlabelled: str | Path | None = None):
         """Adapt a trained model with labelled real photos (intact/ and deformed/), mixed with a dataset variant's
-        synthetic images when ``data`` is given; a :class:`deformsim.learn.finetune.Finetuned`. The model refuses to
-        be scored on those photos afterwards. A model of other settings or inputs in ``out`` is refused unless
-        ``overwrite``."""
+        synthetic images when ``data`` is given, then to ``unlabelled`` photos (no label read) as :meth:`adapt`
+        does; a :class:`deformsim.learn.finetune.Finetuned`. The model refuses to be scored on the labelled photos
+        afterwards. A model of other settings or inputs in ``out`` is refused unless ``overwrite``."""
         from deformsim.learn.finetune import Recipe, finetune
 
         self._check_real(real)
         return finetune(Path(model), Path(real), Path(out), recipe or Recipe(), _path(data), variant,
-                        overwrite=overwrite, progress=self.progress)
+                        overwrite=overwrite, progress=self.progress, unlabelled=_path(unlabelled))
 
     def adapt(self, model: str | Path, photos: str | Path | None, out: str | Path, recipe: AdaptRecipe | None = None,
               overwrite: bool = False, labelled: str | Path | None = None, groups: str = "date"):

@@ -96,3 +96,35 @@ def test_a_negative_or_huge_seed_is_refused_like_generate_seed():
         with pytest.raises(UserError, match=rf"^--seed {seed}: a seed is a whole number from 0 to"):
             Recipe(seed=seed)
     assert Recipe(seed=2**63 - 1).seed == 2**63 - 1
+
+
+def test_finetune_then_adapts_to_unlabelled_photos_whose_labels_it_never_reads(trained, photos, tmp_path):
+    """`finetune --real DIR --unlabelled DIR2`: the fine-tuned model adapted to DIR2 as `adapt --photos` does, the
+    labelled photos counted once (as labelled); flattening DIR2's class folders changes nothing."""
+    root, table = photos
+    unlabelled = make_blobs(tmp_path / "u", 5, seed=13)
+    shutil.copy(table["path"].iloc[0], tmp_path / "u" / "intact" / "a-labelled-photo.png")
+    res = CliRunner().invoke(app, ["finetune", str(trained), "--real", str(root), "--unlabelled", str(tmp_path / "u"),
+                                   "--out", str(tmp_path / "ft"), "--part", "head", "--steps", "20", "--views", "1",
+                                   "--no-progress"])
+    assert res.exit_code == 0, res.output
+    assert "adapted on 12 photos, then to 10 unlabelled photos in" in res.output
+    ckpt, _ = read_checkpoint(tmp_path / "ft")
+    assert ckpt["adapter"]["method"] == "probe"
+    assert ckpt["adapted_unlabelled"] == sorted(file_digest(p) for p in unlabelled["path"])
+    assert ckpt["adapted_on"] == sorted(file_digest(p) for p in table["path"])
+    flat = tmp_path / "flat"
+    flat.mkdir()
+    for p in (tmp_path / "u").rglob("*.png"):
+        shutil.copy(p, flat / f"{p.parent.name}-{p.name}")
+    again = finetune(trained, root, tmp_path / "ft2", Recipe(part="head", steps=20, views=1), progress=False,
+                     unlabelled=flat)
+    assert again.unlabelled == 10
+    assert read_checkpoint(again.model_path)[0]["adapter"] == ckpt["adapter"]
+
+
+def test_finetune_refuses_too_few_unlabelled_photos_before_any_work(trained, photos, tmp_path):
+    make_blobs(tmp_path / "u", 2, seed=13)
+    with pytest.raises(UserError, match=r"^--unlabelled .*u holds 4 distinct photo\(s\): adapting needs at least 8$"):
+        finetune(trained, photos[0], tmp_path / "out", FAST, progress=False, unlabelled=tmp_path / "u")
+    assert not (tmp_path / "out").exists()

@@ -26,11 +26,15 @@ def finetune(
     lr: float = typer.Option(1e-4, "--lr", help="Adam learning rate (small: the model starts trained)"),
     views: int = typer.Option(4, "--views", help="augmented views of each photo, beside its plain image"),
     seed: int = typer.Option(0, "--seed", help="seed of the batches, the views and the dropout"),
+    unlabelled: Optional[Path] = typer.Option(None, "--unlabelled", help="unlabelled photos of real parts (any folder, "
+                                              "no label read) the fine-tuned model then adapts to, as deformsim "
+                                              "adapt --photos does"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace a model in --out made with other settings"),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:
     """Adapt a trained model with labelled real photos (a small learning rate, augmented views, synthetic images
-    mixed in with --data); the adapted model refuses to be scored on those photos (by content).
+    mixed in with --data), then to unlabelled ones with --unlabelled; the adapted model refuses to be scored on the
+    labelled photos (by content).
 
     An existing model in --out is replaced only when it was made with the same settings and inputs, or with
     --overwrite; the new one is built beside it and swapped in whole."""
@@ -38,8 +42,9 @@ def finetune(
 
     recipe = Recipe(part=part, steps=steps, lr=lr, views=views, seed=seed)
     result = plain_engine(progress, notify=note(err_console)).finetune(model_dir, real, out, data, variant, recipe,
-                                                                       overwrite=overwrite)
+                                                                       overwrite=overwrite, unlabelled=unlabelled)
     mixed = f" and {result.synthetic} synthetic images" if result.synthetic else ""
+    mixed += f", then to {result.unlabelled} unlabelled photos" if unlabelled is not None else ""
     console.print(f"adapted on {result.photos} photos{mixed} in {result.seconds:.1f} s: loss {result.loss[0]:.3f} -> "
                   f"{result.loss[1]:.3f}", highlight=False)
     console.print(f"saved {result.model_path}", highlight=False, soft_wrap=True)

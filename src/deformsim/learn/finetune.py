@@ -12,6 +12,10 @@ adapts this way on its own stem's features: an ensemble's members and each backb
 
 The saved model lists the sha256 of every photo it was adapted on (``adapted_on``): evaluate, report and the
 benchmarks refuse to score it on any of them, a renamed copy included (:func:`check_unseen`).
+
+With ``unlabelled`` photos (their labels never read) the fine-tuned model then adapts to them as ``deformsim adapt
+--photos`` does (:mod:`deformsim.learn.adapt_stage`, the default method), the labelled photos joining that fit with
+their labels; it records those photos too (``adapted_unlabelled``).
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from torch import nn
 
 from deformsim.atomic import write_json
 from deformsim.errors import UserError
-from deformsim.identity import file_digest
+from deformsim.identity import digest, file_digest
 from deformsim.learn.device import adam
 from deformsim.learn.models import DeformNet, members
 from deformsim.log import get_logger
@@ -165,20 +169,25 @@ class Finetuned:
     synthetic: int
     seconds: float
     loss: tuple[float, float]
+    unlabelled: int = 0  # the unlabelled photos it then adapted to (their labels unread)
 
 
 def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data: Path | None = None,
-             variant: str | None = None, overwrite: bool = False, progress: bool = True) -> Finetuned:
+             variant: str | None = None, overwrite: bool = False, progress: bool = True,
+             unlabelled: Path | None = None) -> Finetuned:
     """Adapt the trained ``model`` on the labelled photos in ``real`` (intact/ and deformed/), mixed with the
-    images of ``data`` (a dataset's ``variant``, or a photo folder) when given; save it into the folder ``out``.
+    images of ``data`` (a dataset's ``variant``, or a photo folder) when given, then to the ``unlabelled`` photos
+    when given; save it into the folder ``out``.
 
-    Refused with one line before any work when ``real`` is missing, empty or holds one class, when the model is
-    not a label classifier, or when ``out`` is refused as ``deformsim train`` refuses it (and when it holds the
-    model or the photos, or lies inside the photos).
+    Refused with one line before any work when ``real`` is missing, empty or holds one class, when ``unlabelled``
+    is refused as ``deformsim adapt --photos`` refuses it, when the model is not a label classifier (or is adapted
+    already, with ``unlabelled``), or when ``out`` is refused as ``deformsim train`` refuses it (and when it holds
+    the model or the photos, or lies inside the photos).
     """
     from deformsim.dataset.real import real_table
     from deformsim.dataset.tables import check_table, load_table
     from deformsim.learn import checkpoint
+    from deformsim.learn.adapt_stage import unlabelled_photos
     from deformsim.learn.device import pick_device, set_threads
     from deformsim.learn.features import cached_stem
     from deformsim.learn.stage import images_digest
@@ -195,11 +204,15 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     if variant is not None and data is None:
         raise UserError(f"--variant {variant} needs --data (the synthetic images to mix in)")
     synthetic = load_table(data, variant, cfg.variants[0]) if data is not None else None
-    check_apart(out, "--out", {"model": path, "real photos": real, "synthetic data": data})
-    check_outside(out, "--out", {"real photos": real})
+    if unlabelled is not None and ckpt.get("adapter") is not None:
+        raise UserError(f"{path} is adapted already: fine-tune the model it was made from")
+    extra, extra_digests = unlabelled_photos(unlabelled, "--unlabelled") if unlabelled is not None else ([], [])
+    check_apart(out, "--out", {"model": path, "real photos": real, "synthetic data": data, "unlabelled photos": unlabelled})
+    check_outside(out, "--out", {"real photos": real, "unlabelled photos": unlabelled})
     identity = {"settings": {"finetune": asdict(recipe)},
                 "inputs": {"model": file_digest(path), "real": images_digest(photos, real),
-                           "data": None if synthetic is None else images_digest(synthetic, data), "variant": variant}}
+                           "data": None if synthetic is None else images_digest(synthetic, data), "variant": variant,
+                           **({"unlabelled": digest(extra_digests)} if unlabelled is not None else {})}}
     claim(out, "model", identity, overwrite)
 
     set_threads()
@@ -228,10 +241,37 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
         mixture = [(m, c, e.get("weights", "")) for (m, c), e in zip(models[1:], ckpt.get("mixture", []))]
         checkpoint.save(tmp / checkpoint.MODEL_FILE, models[0][0], cfg, ckpt.get("weights", ""), ckpt.get("history", []),
                         ckpt.get("split", {}), adapted_on=adapted_on, mixture=mixture)
+        if unlabelled is not None:
+            extra = _adapt_unlabelled(tmp / checkpoint.MODEL_FILE, paths, photos["y"].to_numpy(), extra, extra_digests,
+                                      progress)
         write_json(tmp / "finetune.json", {
             "model": str(path), "real": str(real), "photos": len(paths), "n_deformed": int(photos["y"].sum()),
             "data": None if data is None else str(data), "variant": variant,
             "synthetic": 0 if synthetic is None else len(synthetic), "recipe": asdict(recipe), "losses": losses,
-            "seconds": seconds})
-    return Finetuned(out / checkpoint.MODEL_FILE, len(paths), 0 if synthetic is None else len(synthetic), seconds,
-                     (losses[0], losses[-1]))
+            "unlabelled": None if unlabelled is None else str(unlabelled), "unlabelled_photos": len(extra),
+            "seconds": time.perf_counter() - start})
+    return Finetuned(out / checkpoint.MODEL_FILE, len(paths), 0 if synthetic is None else len(synthetic),
+                     time.perf_counter() - start, (losses[0], losses[-1]), len(extra))
+
+
+def _adapt_unlabelled(model_file: Path, labelled: list[str], y, paths: list[str], digests: list[str],
+                      progress: bool) -> list[str]:
+    """Adapt the fine-tuned model saved in ``model_file`` to the unlabelled ``paths`` (those not among the
+    ``labelled`` photos, which join the fit with their labels ``y``), in place; the unlabelled photos used."""
+    import numpy as np
+
+    from deformsim.learn import checkpoint
+    from deformsim.learn.adapt_stage import fit_on
+    from deformsim.learn.adapter import AdaptRecipe
+    from deformsim.learn.predict import Predictor
+
+    known = {file_digest(p) for p in labelled}
+    kept = [(p, d) for p, d in zip(paths, digests) if d not in known]  # a labelled photo counts as labelled
+    ckpt, _ = checkpoint.read_checkpoint(model_file)
+    labels = np.concatenate([np.asarray(y), np.full(len(kept), -1)])
+    adapter = fit_on(Predictor(ckpt, model_file, progress), labelled + [p for p, _ in kept], AdaptRecipe(), labels)[0]
+    log.info("adapted to %d unlabelled photos: estimated %.0f %% deformed", len(kept), 100 * adapter.prior)
+    checkpoint.write(model_file, dict(ckpt, adapter=adapter.to_dict(),
+                                      adapted_unlabelled=sorted(set(ckpt.get("adapted_unlabelled", []))
+                                                                | {d for _, d in kept})))
+    return [p for p, _ in kept]
