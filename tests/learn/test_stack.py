@@ -58,9 +58,24 @@ def test_sessions_that_each_hold_one_class_keep_the_synthetic_model():
     mixed = [f"day{i % 3}" for i in range(len(y))]  # three sessions, each with both classes
     held, reason = folds_of(y, mixed)
     assert not reason and [sorted(set(np.asarray(mixed)[h])) for h in held] == [["day0"], ["day1"], ["day2"]]
-    assert folds_of(np.array([0, 0, 1]), ["d"] * 3)[1] == "cross-validation needs 2 labelled photos of each class"
+    assert folds_of(np.repeat([0, 1], [6, 4]), ["d"] * 10)[1] == ("cross-validation needs 5 labelled photos of each "
+                                                                  "class (5 folds)")
     with pytest.raises(UserError, match="both classes"):
         fit_stack(p[:5], x[:5], y[:5], ["d"] * 5)
+
+
+def test_a_few_photos_whose_classes_follow_the_light_keep_the_synthetic_model():
+    """A biased sample: each class's photos shot in another light, which the features show more strongly than the
+    damage. With fewer than 5 photos a class no residual is fitted, so the light cannot be learnt as the damage;
+    from 5 a class, cross-validation has its 5 folds."""
+    rng = np.random.default_rng(4)
+    x, p, y = _photos(rng, 8)
+    x[:, 3] += np.where(y == 1, 4.0, -4.0)
+    for n in (2, 4):
+        rows = np.concatenate([np.flatnonzero(y == 0)[:n], np.flatnonzero(y == 1)[:n]])
+        adapter, choice = fit_stack(p[rows], x[rows], y[rows], ["undated"] * len(rows))
+        assert choice.l2 is None and choice.reason.startswith("cross-validation needs 5") and not adapter.coef
+    assert fit_stack(p, x, y, ["undated"] * len(y))[1].folds == 5
 
 
 def test_a_photo_s_session_comes_from_exif_its_name_or_a_file(tmp_path):

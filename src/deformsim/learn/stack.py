@@ -11,7 +11,10 @@ Folds are shooting sessions when the labelled photos carry more than one (:mod:`
 session is held out in turn, and a fold counts only when its training part holds both classes. When none does (each
 session one class, as when the dented parts were all shot one afternoon) the model stays the synthetic one: a
 residual fitted there would learn the session, not the dent. Photos of one session, or undated, are split into
-class-stratified folds.
+:data:`FOLDS` class-stratified folds, and with fewer than that many photos of a class the model stays as it is: with
+fewer folds the one-standard-error rule rests on too few held-out losses, and a residual chosen on a handful of
+photos can follow whatever else sets their classes apart (``bench adapt --biased``: with 2 photos per class, each
+class from another lighting, it fell below the model).
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from deformsim.errors import UserError
 from deformsim.learn.adapter import Adapter, fit_logistic, logit, sigmoid
 
 L2_GRID = (100.0, 10.0, 1.0, 0.1)  # residual penalties tried, most regularised first (after "none")
-MAX_FOLDS = 5
+FOLDS = 5  # class-stratified folds of labelled photos from one session; fewer photos of a class: no residual
 
 
 @dataclass(frozen=True)
@@ -48,14 +51,13 @@ def folds_of(labels: np.ndarray, groups: list[str]) -> tuple[list[np.ndarray], s
                         "residual fitted on them would learn the session")
         return usable, ""
     fewest = int(min((labels == c).sum() for c in (0, 1)))
-    if fewest < 2:
-        return [], "cross-validation needs 2 labelled photos of each class"
-    k = min(MAX_FOLDS, fewest)
+    if fewest < FOLDS:
+        return [], f"cross-validation needs {FOLDS} labelled photos of each class ({FOLDS} folds)"
     fold = np.empty(len(labels), dtype=int)
     for c in (0, 1):
         rows = np.flatnonzero(labels == c)
-        fold[rows] = np.arange(len(rows)) % k
-    return [np.flatnonzero(fold == f) for f in range(k)], ""
+        fold[rows] = np.arange(len(rows)) % FOLDS
+    return [np.flatnonzero(fold == f) for f in range(FOLDS)], ""
 
 
 def _weights(y: np.ndarray) -> np.ndarray:
