@@ -59,3 +59,18 @@ def test_surface_share_needs_surface_scenes(dataset):
     with pytest.raises(UserError, match="render.surface"):
         composite(dataset, CompositeConfig(workers=1, surface=0.3), "x", seed=0, progress=False)
     assert not (dataset / "variants" / "x").exists()
+
+
+def test_a_dataset_whose_part_images_are_not_in_colour_composites_its_surface_scenes_only(dataset, tmp_path):
+    """render.surface.part_colour: false leaves the part's own images crude: composite refuses to show them."""
+    scenes = _with_surfaces(dataset, tmp_path / "scenes")
+    config = Layout(scenes).config
+    config.write_text("render:\n  surface:\n    kinds: [wood]\n    part_colour: false\n")
+    for share in (0.0, 0.5):
+        with pytest.raises(UserError, match=rf"^dataset {scenes} was rendered with render.surface.part_colour: false, "
+                                            rf"so only its surface scenes are training images: set composite.surface "
+                                            rf"to 1, not {share:g}$"):
+            composite(scenes, CompositeConfig(workers=1, surface=share), "x", seed=0, progress=False)
+    assert not (scenes / "variants" / "x").exists()
+    made = composite(scenes, CompositeConfig(workers=1, surface=1.0), "s", seed=0, progress=False)
+    assert made.surfaces == made.images

@@ -101,6 +101,9 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
     photos = [str(p) for p in scan_backgrounds(cfg.backgrounds)] if cfg.backgrounds else []
     source = "rgba" if cfg.matte == "alpha" else "green"
     jobs = _jobs(layout, manifest, source, shadows=cfg.matte == "alpha", surfaces=cfg.surface > 0)
+    if cfg.surface < 1 and not _part_in_colour(layout):
+        raise UserError(f"dataset {layout.root} was rendered with render.surface.part_colour: false, so only its "
+                        f"surface scenes are training images: set composite.surface to 1, not {cfg.surface:g}")
     twins = twin_ids(manifest)
     if photos and cfg.balance_backgrounds:
         first = balanced_photos(manifest["id"].tolist(), manifest["y"].tolist(), len(photos), seed)
@@ -124,6 +127,17 @@ def composite(root: Path, cfg: CompositeConfig, name: str | None = None, seed: i
         write_json(tmp / SETTINGS_FILE, variant_settings(name, seed, cfg))
     surfaces = int((df["background"] == SURFACE_KIND).sum()) if "background" in df else 0
     return Composited(final, len(df), surfaces, df["matte_iou"].dropna().tolist())
+
+
+def _part_in_colour(layout: Layout) -> bool:
+    """Whether the dataset's images of the part alone are in colour (all but ``render.surface.part_colour: false``,
+    read from its config.yaml; a dataset without one predates the setting)."""
+    from deformsim.schema import read_mapping
+
+    if not layout.config.is_file():
+        return True
+    surface = (read_mapping(layout.config, "config").get("render") or {}).get("surface") or {}
+    return surface.get("part_colour", True) is not False
 
 
 def twin_ids(manifest: pd.DataFrame) -> dict[str, str]:

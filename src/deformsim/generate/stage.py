@@ -186,7 +186,9 @@ def _generate(cfg: Config, out: str | Path, progress: bool, prepared: tuple[Spec
     if cfg.generate.preview:
         from deformsim.dataset.contact_sheet import contact_sheet
 
-        contact_sheet(layout, cfg.generate.preview, cfg.generate.seed)
+        surface = cfg.render.surface
+        shown = "surface" if surface is not None and not surface.part_colour else "rgba"  # what training will see
+        contact_sheet(layout, cfg.generate.preview, cfg.generate.seed, shown)
     result.images = len(done) * views
     result.seconds = time.perf_counter() - t0
     return result

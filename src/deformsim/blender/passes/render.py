@@ -10,6 +10,7 @@ do not change.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -77,23 +78,10 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> Render
     target = apply_state(ctx, p)
     scene = ctx.scene
     seconds = []
-    for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
-        cams.place(cam, cp, target, ctx.camera_scale, ctx.obj)
-        scene.camera = cam
-        iid = image_id(p.index, c)
-        rgba, t = render_to_array(scene, layout.image("rgba", iid))
-        _save(layout.image("rgba", iid), rgba)
-        for f in ctx.features:
-            f.image(c, iid, rgba, layout)
-        for kind, color in BACKGROUNDS.items():
-            if ctx.cfg.render.render_backgrounds:
-                img, dt = _render_background(ctx, layout.image(kind, iid), color)
-                img[rgba[..., 3] == 0] = color  # the denoiser can tint flat corners; uncovered pixels are exact
-                t += dt
-            else:
-                img = over_color(rgba, color)
-            _save(layout.image(kind, iid), img)
-        seconds.append(t)
+    surface = ctx.cfg.render.surface
+    with _alpha_only(scene, surface is not None and not surface.part_colour):
+        for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
+            seconds.append(_render_part(ctx, c, cam, cp, target, image_id(p.index, c), layout))
     # after every other image of the sample: the last of these passes resets the Cycles session (blender.scene.ground)
     passes = [f for f in ctx.features if f.extra_pass]
     for f in passes:
@@ -112,6 +100,41 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> Render
         sample_columns={k: v for f in ctx.features for k, v in f.sample_columns().items()},
         image_columns=[_image_columns(ctx, layout, image_id(p.index, c), c) for c in range(len(ctx.cameras))],
     )
+
+
+def _render_part(ctx: RenderContext, c: int, cam, cp, target, iid: str, layout: Layout) -> float:
+    """Render camera ``c``'s image of the part (rgba, the features' images from it, black and green); its seconds."""
+    scene = ctx.scene
+    cams.place(cam, cp, target, ctx.camera_scale, ctx.obj)
+    scene.camera = cam
+    rgba, t = render_to_array(scene, layout.image("rgba", iid))
+    _save(layout.image("rgba", iid), rgba)
+    for f in ctx.features:
+        f.image(c, iid, rgba, layout)
+    for kind, color in BACKGROUNDS.items():
+        if ctx.cfg.render.render_backgrounds:
+            img, dt = _render_background(ctx, layout.image(kind, iid), color)
+            img[rgba[..., 3] == 0] = color  # the denoiser can tint flat corners; uncovered pixels are exact
+            t += dt
+        else:
+            img = over_color(rgba, color)
+        _save(layout.image(kind, iid), img)
+    return t
+
+
+@contextmanager
+def _alpha_only(scene, on: bool):
+    """With ``on`` (``render.surface.part_colour: false``), the renders inside trace no bounce and skip the
+    denoiser: the camera rays, and with them the alpha and every dense pass, are those of the full render (Cycles
+    draws a pixel's camera samples from the same seed whatever the bounces); only the colour is cruder."""
+    cy = scene.cycles
+    saved = (cy.max_bounces, cy.use_denoising)
+    if on:
+        cy.max_bounces, cy.use_denoising = 0, False
+    try:
+        yield
+    finally:
+        cy.max_bounces, cy.use_denoising = saved
 
 
 def _image_columns(ctx: RenderContext, layout: Layout, iid: str, c: int) -> dict:
