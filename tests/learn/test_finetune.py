@@ -128,3 +128,12 @@ def test_finetune_refuses_too_few_unlabelled_photos_before_any_work(trained, pho
     with pytest.raises(UserError, match=r"^--unlabelled .*u holds 4 distinct photo\(s\): adapting needs at least 8$"):
         finetune(trained, photos[0], tmp_path / "out", FAST, progress=False, unlabelled=tmp_path / "u")
     assert not (tmp_path / "out").exists()
+
+
+def test_an_adapted_model_is_refused_rather_than_losing_its_adapter(trained, photos, tmp_path):
+    unlabelled = tmp_path / "u"
+    make_blobs(unlabelled, 5, seed=13)
+    adapted = finetune(trained, photos[0], tmp_path / "ft", FAST, progress=False, unlabelled=unlabelled).model_path
+    with pytest.raises(UserError, match=r"is adapted already: fine-tune the model it was made from$"):
+        finetune(adapted, photos[0], tmp_path / "again", FAST, progress=False)
+    assert not (tmp_path / "again").exists()

@@ -180,8 +180,8 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     when given; save it into the folder ``out``.
 
     Refused with one line before any work when ``real`` is missing, empty or holds one class, when ``unlabelled``
-    is refused as ``deformsim adapt --photos`` refuses it, when the model is not a label classifier (or is adapted
-    already, with ``unlabelled``), or when ``out`` is refused as ``deformsim train`` refuses it (and when it holds
+    is refused as ``deformsim adapt --photos`` refuses it, when the model is not a label classifier or is adapted
+    already (``deformsim adapt``), or when ``out`` is refused as ``deformsim train`` refuses it (and when it holds
     the model or the photos, or lies inside the photos).
     """
     from deformsim.dataset.real import real_table
@@ -204,7 +204,7 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     if variant is not None and data is None:
         raise UserError(f"--variant {variant} needs --data (the synthetic images to mix in)")
     synthetic = load_table(data, variant, cfg.variants[0]) if data is not None else None
-    if unlabelled is not None and ckpt.get("adapter") is not None:
+    if ckpt.get("adapter") is not None:  # fine-tuning keeps the networks, not an adapter fitted to their old outputs
         raise UserError(f"{path} is adapted already: fine-tune the model it was made from")
     extra, extra_digests = unlabelled_photos(unlabelled, "--unlabelled") if unlabelled is not None else ([], [])
     check_apart(out, "--out", {"model": path, "real photos": real, "synthetic data": data, "unlabelled photos": unlabelled})
