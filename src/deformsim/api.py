@@ -318,15 +318,15 @@ class Engine:
     def fewshot(self, real: str | Path, model: str | Path, out: str | Path, ks: Sequence[int] = (0, 1, 2, 5, 10, 20),
                 draws: int = 5, seeds: int = 2, recipe: Recipe | None = None,
                 curves: Sequence[str] = ("synthetic", "unadapted", "imagenet"), data: str | Path | None = None,
-                variant: str | None = None) -> FewshotFile:
+                variant: str | None = None, biased: bool = False) -> FewshotFile:
         """The few-shot benchmark: ``model`` adapted on k labelled photos per class of ``real`` and scored on the
         others, beside the ImageNet backbone trained on them alone; its results (also in ``out/fewshot.json``, the
-        curves in ``out/fewshot.png``)."""
+        curves in ``out/fewshot.png``). ``biased``: each class's k photos from a different lighting."""
         from deformsim.evaluate.fewshot import run_fewshot
 
         self._check_real(real)
         return run_fewshot(Path(real), Path(model), Path(out), tuple(ks), draws, seeds, recipe, tuple(curves),
-                           _path(data), variant, progress=self.progress)
+                           _path(data), variant, progress=self.progress, biased=biased)
 
     def _check_real(self, real: str | Path | None) -> None:
         """Check a folder of labelled real photos and say what it holds, per class and subfolder."""

@@ -8,7 +8,8 @@ import pytest
 from PIL import Image
 
 from deformsim.errors import UserError
-from deformsim.evaluate.adaptation import _check_biased, biased_draw, kshot_curves, run_adaptation, warm_half
+from deformsim.evaluate.adaptation import kshot_curves, run_adaptation
+from deformsim.evaluate.draws import biased_draw, check_biased, warm_half
 from deformsim.learn.adapter import AdaptRecipe
 
 
@@ -53,8 +54,8 @@ def test_a_biased_draw_short_of_photos_on_one_side_is_refused_naming_it(tmp_path
     warm = np.array([True] * 8 + [False] * 2 + [True, False] * 5)
     with pytest.raises(UserError, match=r"^--biased --k 2: real holds 2 cool-lit intact photos; the biased draw needs 2 "
                                         r"and one left to score$"):
-        _check_biased(y, warm, 2, "real")
-    _check_biased(y, warm, 1, "real")
+        check_biased(y, warm, 2, "real")
+    check_biased(y, warm, 1, "real")
 
 
 def test_biased_without_k_is_refused_before_any_work(tmp_path):

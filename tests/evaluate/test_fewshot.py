@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from deformsim.errors import UserError
-from deformsim.evaluate.fewshot import draw, parse_ks, read_results, run_fewshot
+from deformsim.evaluate.draws import draw
+from deformsim.evaluate.fewshot import _table, parse_ks, read_results, run_fewshot
 from deformsim.evaluate.fewshot_file import FewshotFile
 from deformsim.report.fewshot_html import fewshot_section
 from tests.learn.blobs import make_blobs
@@ -72,6 +73,28 @@ def test_each_run_scores_the_photos_it_did_not_adapt_on(tiny, tmp_path):
         assert row.runs == 2 and row.accuracy_interval[0] <= row.accuracy <= row.accuracy_interval[1]
     assert read_results(tmp_path / "out" / "fewshot.json") == results
     assert (tmp_path / "out" / "fewshot.png").read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.torch
+def test_a_biased_fewshot_adapts_each_class_on_photos_of_another_lighting(tiny, tmp_path):
+    from deformsim.evaluate.draws import warm_half
+    from deformsim.learn.finetune import Recipe
+
+    model, real = tiny
+    results = run_fewshot(real, model, tmp_path / "out", (1,), draws=2, seeds=1, recipe=Recipe(**QUICK),
+                          curves=("synthetic",), progress=False, biased=True)
+    table = _table(real)
+    warm = dict(zip(table["id"], warm_half(list(table["path"]))))
+    label = dict(zip(table["id"], table["y"]))
+    assert results.biased and len(results.runs) == 2
+    for run in results.runs:  # intact from the warm half in draw 0, from the cool half in draw 1
+        sides = {label[i]: warm[i] for i in run["adapted_on"]}
+        assert sides == {0: run["draw"] == 0, 1: run["draw"] != 0}
+    short = r"^--biased --k 5: .* holds \d (warm|cool)-lit (intact|deformed) photos; the biased draw needs 5"
+    with pytest.raises(UserError, match=short):
+        run_fewshot(real, model, tmp_path / "out5", (5,), draws=1, seeds=1, recipe=Recipe(**QUICK), progress=False,
+                    biased=True)
+    assert not (tmp_path / "out5").exists()
 
 
 @pytest.mark.torch

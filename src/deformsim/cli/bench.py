@@ -15,6 +15,9 @@ from deformsim.errors import UserError
 
 SIZES = {True: {"generate.n": 320}, False: {"generate.n": 640}}  # --quick or not
 
+BIASED_HELP = ("draw the k photos as a biased sample: the intact ones from the warmer-lit half of the folder and the "
+               "deformed ones from the cooler half (the reverse in every other draw)")
+
 
 def register(app: typer.Typer) -> None:
     bench_app = typer.Typer(no_args_is_help=True, help="Benchmarks that measure what the product is for.")
@@ -147,6 +150,7 @@ def fewshot(
                                         "synthetic model's batches (with --variant)"),
     variant: Optional[str] = typer.Option(None, "--variant", autocompletion=variant_choices,
                                          help="image variant of --data"),
+    biased: bool = typer.Option(False, "--biased", help=BIASED_HELP),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:
     """Adapt a model on k labelled real photos per class, score it on the remaining photos; print accuracy and F1
@@ -159,7 +163,7 @@ def fewshot(
     recipe = Recipe(part=part, steps=steps, lr=lr, views=views)
     engine = plain_engine(progress, notify=note(err_console))
     results = engine.fewshot(real, model, out, parse_ks(k), draws, seeds, recipe,
-                             [c.strip() for c in curves.split(",") if c.strip()], data, variant)
+                             [c.strip() for c in curves.split(",") if c.strip()], data, variant, biased)
     console.print(f"{len(results.runs)} runs in {results.seconds:.0f} s; results: {out / 'fewshot.json'}",
                   highlight=False, soft_wrap=True)
     fewshot_summary(results, out / "fewshot.png")
@@ -182,9 +186,7 @@ def adapt(
     draws: int = typer.Option(5, "--draws", help="draws of the k photos per model"),
     groups: str = typer.Option("date", "--groups", help="shooting sessions of the photos, which the stacked curve's "
                                "cross-validation keeps apart: date (EXIF or file name), none, or a path,group CSV file"),
-    biased: bool = typer.Option(False, "--biased", help="draw the k photos as a biased sample: the intact ones from the "
-                                "warmer-lit half of the folder and the deformed ones from the cooler half (the reverse "
-                                "in every other draw)"),
+    biased: bool = typer.Option(False, "--biased", help=BIASED_HELP),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:
     """Adapt a model to real photos without their labels, transductive (adapted on the photos it is scored on) and

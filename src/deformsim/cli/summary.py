@@ -136,7 +136,8 @@ def fewshot_summary(results: FewshotFile, plot: Path) -> None:
     """Print the few-shot benchmark's ``results`` (per k and curve: mean and 95 % interval) and where its plot is."""
     from deformsim.evaluate.fewshot import CURVES, TITLES
 
-    table = Table(title="Real-photo results after adapting on k photos per class (mean, 95 % interval)",
+    sample = ", a biased sample: each class from another lighting" if results.biased else ""
+    table = Table(title=f"Real-photo results after adapting on k photos per class{sample} (mean, 95 % interval)",
                   header_style="bold")
     for col in ("k per class", "model", "runs", "accuracy", "F1", "interval over", "majority class"):
         table.add_column(col, justify="left" if col == "model" else "right")
@@ -170,7 +171,7 @@ def adaptation_summary(results: AdaptBenchFile) -> None:
     print_table(table, None)
     console.print(f"true share deformed {results.true_share:.0%}", highlight=False)
     if results.kshot:
-        sample = "a biased sample, each class from another lighting" if results.biased else "drawn at random"
+        sample = "a biased sample: each class from another lighting" if results.biased else "drawn at random"
         kshot = Table(title=f"k labelled photos per class ({sample}), scored on the rest ({results.draws} draws per "
                       "model)",
                       header_style="bold")

@@ -9,8 +9,8 @@ Two protocols, both reading the folder's labels for scoring only:
 
 With ``ks``, k labelled photos of each class are drawn at random and the rest scored; ``biased`` draws them as a
 biased sample does instead: each class's k photos from a different lighting (the intact ones from the warmer half of
-the folder and the deformed ones from the cooler half, or the reverse in every other draw; :func:`warm_half`, from the
-photos' pixels), which a model fitted on them can mistake for the damage.
+the folder and the deformed ones from the cooler half, or the reverse in every other draw; from the
+photos' pixels; :mod:`deformsim.evaluate.draws`), which a model fitted on them can mistake for the damage.
 
 Several models (one per render draw, say) are pooled: per method and protocol, accuracy, F1 and AUC as mean and
 standard deviation over the models, and the paired difference of each metric to the unadapted models with a 95 %
@@ -27,6 +27,7 @@ import numpy as np
 
 from deformsim.errors import UserError
 from deformsim.evaluate.adaptation_file import AdaptBenchFile
+from deformsim.evaluate.draws import check_biased, warm_half
 from deformsim.learn.adapter import MIN_PHOTOS, UNLABELLED, AdaptRecipe, fit_adapter
 from deformsim.log import get_logger
 from deformsim.records import made
@@ -69,40 +70,6 @@ def _row(y: np.ndarray, probs: np.ndarray, threshold: float) -> dict:
     return row
 
 
-def warm_half(paths: list[str]) -> np.ndarray:
-    """Whether each photo is warmer-lit than the folder's median: its mean red minus mean blue (8-bit RGB, read at
-    most 256 px wide), above the median of the folder's."""
-    from PIL import Image
-
-    warmth = []
-    for path in paths:
-        with Image.open(path) as im:
-            im.draft("RGB", (256, 256))
-            rgb = np.asarray(im.convert("RGB"), dtype=np.float64)
-        warmth.append(rgb[..., 0].mean() - rgb[..., 2].mean())
-    warmth = np.array(warmth)
-    return warmth > np.median(warmth)
-
-
-def biased_draw(y: np.ndarray, k: int, warm: np.ndarray, intact_warm: bool,
-                rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of k photos of each class, the intact ones from the warm half (``intact_warm``, else the cool half) and the
-    deformed ones from the other, and the remaining rows (to score)."""
-    pools = [np.flatnonzero((y == c) & (warm == (intact_warm == (c == 0)))) for c in (0, 1)]
-    chosen = np.sort(np.concatenate([rng.choice(pool, size=k, replace=False) for pool in pools]))
-    return chosen.astype(int), np.setdiff1d(np.arange(len(y)), chosen)
-
-
-def _check_biased(y: np.ndarray, warm: np.ndarray, k: int, real: Path) -> None:
-    """One line when a class has fewer than k photos (and one to score) on a side of the lighting split."""
-    for c, name in ((0, "intact"), (1, "deformed")):
-        for side, light in ((True, "warm"), (False, "cool")):
-            held = int(((y == c) & (warm == side)).sum())
-            if held < k + 1:
-                raise UserError(f"--biased --k {k}: {real} holds {held} {light}-lit {name} photos; the biased draw "
-                                f"needs {k} and one left to score")
-
-
 def _kshot(p0: np.ndarray, features: np.ndarray, y: np.ndarray, groups: list[str], chosen: np.ndarray,
            rest: np.ndarray, recipe: AdaptRecipe, threshold: float) -> dict[str, float]:
     """Accuracy on the photos ``rest`` with the labelled photos ``chosen``: the model unadapted, a probe fitted on
@@ -127,9 +94,10 @@ def kshot_curves(base: list[np.ndarray], features: list[np.ndarray], y: np.ndarr
                  warm: np.ndarray | None = None) -> list[dict]:
     """Per k and curve: mean accuracy over the models and draws, its standard deviation, and the mean paired
     difference to the unadapted model on the same photos with a 95 % bootstrap interval over the runs. With ``warm``
-    (:func:`warm_half`), the k photos are a biased sample (:func:`biased_draw`, intact from the warm half in even
+    (:func:`deformsim.evaluate.draws.warm_half`), the k photos are a biased sample (intact from the warm half in even
     draws)."""
-    from deformsim.evaluate.fewshot import draw, mean_interval
+    from deformsim.evaluate.draws import biased_draw, draw
+    from deformsim.evaluate.fewshot import mean_interval
 
     def rows_of(k: int, d: int) -> tuple[np.ndarray, np.ndarray]:
         rng = np.random.default_rng([seed, k, d])
@@ -155,7 +123,7 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     """Every unlabelled method under both protocols on the labelled photos of ``real``, for each of ``models`` (e.g.
     one per render draw), pooled; with ``ks``, the k-photo curves (:func:`kshot_curves`, ``draws`` draws of the k
     photos per model; the shooting sessions ``groups``: ``date``, ``none`` or a CSV file, see
-    :mod:`deformsim.dataset.groups`; ``biased``: each class's k photos from a different lighting, :func:`biased_draw`);
+    :mod:`deformsim.dataset.groups`; ``biased``: each class's k photos from a different lighting);
     written to ``out/adapt.json`` and returned."""
     from deformsim.dataset.groups import photo_groups
     from deformsim.evaluate.fewshot import _table
@@ -179,9 +147,9 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
         raise UserError(f"--k {max(ks)}: {real} holds {fewest} photos of its smaller class; k must leave one to score")
     if biased and not ks:
         raise UserError("--biased draws the k labelled photos: give --k too")
-    warm = warm_half(list(table["path"])) if biased else None
+    warm = warm_half(list(table["path"])) if biased else None  # before any model is read
     for k in ks if biased else ():
-        _check_biased(table["y"].to_numpy(), warm, k, real)
+        check_biased(table["y"].to_numpy(), warm, k, real)
     if len(table) < folds * MIN_PHOTOS:
         raise UserError(f"{real} holds {len(table)} distinct photos: {folds} folds of at least {MIN_PHOTOS} needs "
                         f"{folds * MIN_PHOTOS}")

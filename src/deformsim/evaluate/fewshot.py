@@ -3,7 +3,8 @@
 For each k, ``draws`` draws (a numpy Generator seeded by k and the draw) of k photos of each class from one
 labelled folder; for each draw and each of ``seeds`` training seeds, a model adapts on those photos and is scored
 on the remaining photos of the folder: never one of the k, nor a copy of one (photos are told apart by content:
-the folder's copies count once). Two curves, on the same draws:
+the folder's copies count once), or with ``biased`` as a biased sample does (each class's k photos from a different
+lighting, :mod:`deformsim.evaluate.draws`). Three curves, on the same draws:
 
 - ``synthetic``: the trained model, adapted (:func:`deformsim.learn.finetune.adapt`) at the recipe's small
   learning rate, with the synthetic images of ``data`` mixed in when given; k = 0 is the model as it is.
@@ -34,6 +35,7 @@ import numpy as np
 
 from deformsim.atomic import write_bytes
 from deformsim.errors import UserError
+from deformsim.evaluate.draws import check_biased, warm_half
 from deformsim.evaluate.fewshot_file import CURVES, FewshotFile
 from deformsim.log import get_logger
 from deformsim.records import made, read_record
@@ -68,13 +70,6 @@ def mean_interval(values: list[float], seed: int = 0) -> tuple[float, list[float
     a = np.asarray(values, dtype=float)
     means = a[np.random.default_rng(seed).integers(0, a.size, (BOOTSTRAP, a.size))].mean(axis=1)
     return float(a.mean()), [float(v) for v in np.percentile(means, [2.5, 97.5])]
-
-
-def draw(y: np.ndarray, k: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of k photos of each class (to adapt on) and the remaining rows (to score)."""
-    chosen = np.sort(np.concatenate([rng.choice(np.flatnonzero(y == c), size=k, replace=False) for c in (0, 1)]))
-    rest = np.setdiff1d(np.arange(len(y)), chosen)
-    return chosen.astype(int), rest
 
 
 def _table(real: Path):
@@ -117,15 +112,16 @@ def _summary(runs: list[dict], ks: list[int], curve: str, y: np.ndarray, seed: i
 
 def run_fewshot(real: Path, model: Path, out: Path, ks: tuple[int, ...] = KS, draws: int = 5, seeds: int = 2,
                 recipe: Recipe | None = None, curves: tuple[str, ...] = CURVES, data: Path | None = None,
-                variant: str | None = None, progress: bool = True) -> FewshotFile:
+                variant: str | None = None, progress: bool = True, biased: bool = False) -> FewshotFile:
     """Both curves (or those in ``curves``) on the labelled photos of ``real`` for the trained ``model``; written
-    to ``out/fewshot.json`` and ``out/fewshot.png``. Every input is checked before any work."""
+    to ``out/fewshot.json`` and ``out/fewshot.png``. ``biased``: each class's k photos from a different lighting
+    (:func:`deformsim.evaluate.draws.biased_draw`). Every input is checked before any work."""
     from deformsim.learn.finetune import Recipe
     from deformsim.report.figures import fewshot_png
 
     start = time.perf_counter()
     recipe = recipe or Recipe(part="head")
-    inputs = _validate(real, model, out, ks, draws, seeds, curves, data, variant)
+    inputs = _validate(real, model, out, ks, draws, seeds, curves, data, variant, biased)
     bench = _Bench.prepare(inputs, recipe, curves, progress)
     results = made(FewshotFile, _summarise(inputs, bench, _loop(bench, inputs)) | {"seconds": time.perf_counter() - start})
     results.write(inputs.out / "fewshot.json")
@@ -153,10 +149,19 @@ class _Inputs:
     synthetic: pd.DataFrame | None
     data: Path | None
     variant: str | None
+    warm: np.ndarray | None = None  # a biased sample: which photos are in the warmer-lit half
+
+    def draw(self, k: int, d: int) -> tuple[np.ndarray, np.ndarray]:
+        """The rows adapted on and scored in draw ``d`` of k photos a class (biased: intact from the warm half in even
+        draws)."""
+        from deformsim.evaluate.draws import biased_draw, draw
+
+        rng = np.random.default_rng([k, d])
+        return draw(self.y, k, rng) if self.warm is None else biased_draw(self.y, k, self.warm, d % 2 == 0, rng)
 
 
 def _validate(real: Path, model: Path, out: Path, ks: tuple[int, ...], draws: int, seeds: int,
-              curves: tuple[str, ...], data: Path | None, variant: str | None) -> _Inputs:
+              curves: tuple[str, ...], data: Path | None, variant: str | None, biased: bool = False) -> _Inputs:
     """Every input checked (one line naming the bad value otherwise), the model and the photos read."""
     from deformsim.dataset.tables import load_table
     from deformsim.learn import checkpoint
@@ -193,7 +198,10 @@ def _validate(real: Path, model: Path, out: Path, ks: tuple[int, ...], draws: in
     if variant is not None and data is None:
         raise UserError(f"--variant {variant} needs --data (the synthetic images to mix in)")
     synthetic = load_table(data, variant, cfg.variants[0]) if data is not None else None
-    return _Inputs(real, out, ckpt, path, cfg, table, y, ks, capped, draws, seeds, synthetic, data, variant)
+    warm = warm_half(list(table["path"])) if biased else None
+    for k in ks if biased else ():
+        check_biased(y, warm, k, real)
+    return _Inputs(real, out, ckpt, path, cfg, table, y, ks, capped, draws, seeds, synthetic, data, variant, warm)
 
 
 @dataclass
@@ -299,7 +307,7 @@ def _loop(bench: _Bench, inputs: _Inputs) -> list[dict]:
     runs: list[dict] = []
     for k in inputs.ks:
         for d in range(draws if k else 1):
-            chosen, rest = draw(y, k, np.random.default_rng([k, d]))
+            chosen, rest = inputs.draw(k, d)
             for curve, s in _runs_of_draw(k, bench.models, repeats):
                 m = bench.run(curve, k, s, chosen, rest, y)
                 runs.append({"curve": curve, "k": k, "draw": d, "seed": s, "adapted_on": list(table["id"].iloc[chosen]),
@@ -330,7 +338,7 @@ def _summarise(inputs: _Inputs, bench: _Bench, runs: list[dict]) -> dict:
         "photos": {"intact": int((y == 0).sum()), "deformed": int((y == 1).sum())},
         "majority_baseline": max(share, 1 - share),
         "ks": inputs.ks, "capped": inputs.capped, "draws": inputs.draws, "seeds": inputs.seeds,
-        "recipe": {"part": recipe.part, "steps": recipe.steps, "batch_size": recipe.batch_size,
+        "biased": inputs.warm is not None, "recipe": {"part": recipe.part, "steps": recipe.steps, "batch_size": recipe.batch_size,
                    "views": recipe.views, "lr": bench.lrs},
         "data": None if inputs.data is None else str(inputs.data), "variant": inputs.variant,
         "curves": {c: rows for c in bench.models if (rows := _summary(runs, inputs.ks, c, y, 0))},  # --k 0: no imagenet

@@ -51,6 +51,7 @@ class FewshotFile(RecordFile):
     weights: dict[str, str] | None = None
     ks: list[Count] | None = None
     capped: list[Count] | None = None
+    biased: bool = False  # each class's k photos drawn from a different lighting (bench fewshot --biased)
     recipe: dict[str, object] | None = None
     data: str | None = None
     variant: str | None = None
