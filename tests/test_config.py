@@ -38,6 +38,8 @@ def test_overrides_apply_and_none_sets_null(tmp_path):
         ({"render.region_visible": {"turn_deg": 90}}, "render.region_visible.turn_deg"),
         ({"render.region_visible": {"across_px": 0}}, "render.region_visible.across_px"),
         ({"render.dense": False, "render.region_visible": {}}, "render.region_visible needs render.dense: true"),
+        ({"render.surface": {"part_colour": False}, "composite.surface": 0.5},
+         "render.surface.part_colour: false needs composite.surface: 1"),
         ({"object.shapes": {"round": True, "scale": [[0.9, 1.2], [1, 1], [1, 1]]}}, "object.shapes.round takes y's"),
     ],
 )

@@ -719,6 +719,9 @@ class Config(_Model):
         if self.train.min_region and not self.render.dense:
             raise ValueError(f"train.min_region={self.train.min_region:g} needs render.dense: true (each image's "
                              "deformed region)")
+        if self.render.surface is not None and not self.render.surface.part_colour and self.composite.surface < 1:
+            raise ValueError(f"render.surface.part_colour: false needs composite.surface: 1 (the part alone is not "
+                             f"rendered in colour, only its surface scenes can be shown), not {self.composite.surface:g}")
         return self
 
     def input_paths(self) -> dict[str, Path | None]:

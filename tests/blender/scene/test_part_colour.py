@@ -21,8 +21,8 @@ SURFACE = {"kinds": ["concrete"], "backdrop": 2.5}
 
 def test_the_part_alone_in_less_colour_changes_no_label_mask_map_or_scene(tmp_path):
     base = {**TINY_RENDER, "render.dense": True, "camera.azimuth_quadrants": [(20, 70), (200, 250)]}
-    cfgs = {colour: load_config("quick", {**base, "render.surface": {**SURFACE, "part_colour": colour}})
-            for colour in (True, False)}
+    cfgs = {colour: load_config("quick", {**base, "render.surface": {**SURFACE, "part_colour": colour},
+                                          "composite.surface": 1.0}) for colour in (True, False)}
     params = [sample_params(i, 3, cfgs[True], load_spec(None), list_hdris(None)) for i in range(2)]
     replies = {}
     for colour, cfg in cfgs.items():
