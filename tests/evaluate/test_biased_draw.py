@@ -21,6 +21,13 @@ def test_warm_half_splits_the_photos_by_their_colour_at_the_median(tmp_path):
     assert warm_half(paths).tolist() == [True, False, False, True, False, True]
 
 
+def test_a_photo_that_cannot_be_read_is_named_in_one_line(tmp_path):
+    (tmp_path / "broken.jpg").write_bytes(b"not a jpeg")
+    with pytest.raises(UserError, match="broken.jpg") as err:
+        warm_half([str(tmp_path / "broken.jpg")])
+    assert "\n" not in str(err.value)
+
+
 def test_a_biased_draw_takes_each_class_from_its_own_lighting_and_scores_the_rest():
     y = np.repeat([0, 1], 20)
     warm = np.tile([True, False], 20)

@@ -20,15 +20,14 @@ def draw(y: np.ndarray, k: int, rng: np.random.Generator) -> tuple[np.ndarray, n
 
 
 def warm_half(paths: list[str]) -> np.ndarray:
-    """Whether each photo is warmer-lit than the folder's median: its mean red minus mean blue (8-bit RGB, read at
-    most 256 px wide), above the median of the folder's."""
-    from PIL import Image
+    """Whether each photo is warmer-lit than the folder's median: its mean red minus mean blue (8-bit sRGB as every
+    stage reads it, a JPEG decoded at a reduced size covering 256 px), above the median of the folder's; a photo
+    that cannot be read is a :class:`UserError` naming it."""
+    from deformsim.dataset.images import open_rgb
 
     warmth = []
     for path in paths:
-        with Image.open(path) as im:
-            im.draft("RGB", (256, 256))
-            rgb = np.asarray(im.convert("RGB"), dtype=np.float64)
+        rgb = np.asarray(open_rgb(path, min_size=(256, 256)), dtype=np.float64)
         warmth.append(rgb[..., 0].mean() - rgb[..., 2].mean())
     warmth = np.array(warmth)
     return warmth > np.median(warmth)
