@@ -92,6 +92,24 @@ def labelled_photos(folder: Path) -> tuple[list[str], np.ndarray, list[str]]:
     return list(table["path"]), table["y"].to_numpy(), list(table["digest"])
 
 
+def not_labelled(paths: list[str], digests: list[str], labelled: list[str]) -> tuple[list[str], list[str]]:
+    """The unlabelled ``paths`` and their ``digests`` less the copies of a ``labelled`` photo (digests): a photo given
+    with its label counts as labelled."""
+    seen = set(labelled)
+    kept = [i for i, d in enumerate(digests) if d not in seen]
+    return [paths[i] for i in kept], [digests[i] for i in kept]
+
+
+def with_adapter(ckpt: dict, adapter: Adapter, unlabelled: list[str], labelled: list[str] = ()) -> dict:
+    """The saved model ``ckpt`` with ``adapter`` and the digests of the photos it adapted on, the ``unlabelled`` ones
+    added to ``adapted_unlabelled`` and the ``labelled`` ones (if any) to ``adapted_on``."""
+    adapted = dict(ckpt, adapter=adapter.to_dict(),
+                   adapted_unlabelled=sorted(set(ckpt.get("adapted_unlabelled", [])) | set(unlabelled)))
+    if labelled:
+        adapted["adapted_on"] = sorted(set(ckpt.get("adapted_on", [])) | set(labelled))
+    return adapted
+
+
 def fit_on(predictor, paths: list[str], recipe: AdaptRecipe, labels: np.ndarray | None = None,
            groups: list[str] | None = None) -> tuple[Adapter, np.ndarray, np.ndarray, Choice | None]:
     """The adapter of ``predictor`` (:class:`deformsim.learn.predict.Predictor`, not adapted yet) fitted on
@@ -131,9 +149,7 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
     ckpt, path = checkpoint.read_checkpoint(model)
     known, y, known_digests = labelled_photos(labelled) if labelled is not None else ([], np.zeros(0, int), [])
     paths, digests = unlabelled_photos(photos) if photos is not None else ([], [])
-    seen = set(known_digests)
-    kept = [i for i, d in enumerate(digests) if d not in seen]  # a labelled photo counts as labelled
-    paths, digests = [paths[i] for i in kept], [digests[i] for i in kept]
+    paths, digests = not_labelled(paths, digests, known_digests)
     sources = {"photos": photos, "labelled": labelled}
     check_apart(out, "--out", {"model": path, **{k: v for k, v in sources.items() if v is not None}})
     check_outside(out, "--out", {k: v for k, v in sources.items() if v is not None})
@@ -154,11 +170,7 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
              "%.0f %% -> %.0f %%", recipe.method, result.photos, len(known), seconds, 100 * adapter.prior,
              100 * result.deformed_before, 100 * result.deformed_after)
     with replacing(out, identity, "model") as tmp:
-        adapted = dict(ckpt, adapter=adapter.to_dict(),
-                       adapted_unlabelled=sorted(set(ckpt.get("adapted_unlabelled", [])) | set(digests)))
-        if known:
-            adapted["adapted_on"] = sorted(set(ckpt.get("adapted_on", [])) | set(known_digests))
-        checkpoint.write(tmp / checkpoint.MODEL_FILE, adapted)
+        checkpoint.write(tmp / checkpoint.MODEL_FILE, with_adapter(ckpt, adapter, digests, known_digests))
         made(AdaptFile, {"model": str(path), "groups": groups, "recipe": asdict(recipe),
                          "folders": {k: None if v is None else str(v) for k, v in sources.items()},
                          "protocol": "unlabelled photos' labels never read",

@@ -34,10 +34,10 @@ def _entry(model: DeformNet, cfg: TrainConfig, weights: str) -> dict:
             "weights": weights}
 
 
-def save(path: Path, model: DeformNet, cfg: TrainConfig, weights: str, history: list[dict], split: dict,
-         outputs: list[str] | None = None, adapted_on: list[str] | None = None,
-         mixture: list[tuple[DeformNet, TrainConfig, str]] = ()) -> None:
-    """Write ``path`` atomically; ``split`` holds the ``train`` and ``val`` image ids, ``adapted_on`` the sha256 of
+def contents(model: DeformNet, cfg: TrainConfig, weights: str, history: list[dict], split: dict,
+             outputs: list[str] | None = None, adapted_on: list[str] | None = None,
+             mixture: list[tuple[DeformNet, TrainConfig, str]] = ()) -> dict:
+    """What :func:`save` writes: ``split`` holds the ``train`` and ``val`` image ids, ``adapted_on`` the sha256 of
     each real photo a fine-tuned model was adapted on (:mod:`deformsim.learn.finetune`), ``mixture`` the further
     backbones' models, configs and weights sources."""
     ckpt = _entry(model, cfg, weights) | {"classes": list(CLASSES), "history": history, "split": split}
@@ -47,7 +47,12 @@ def save(path: Path, model: DeformNet, cfg: TrainConfig, weights: str, history: 
         ckpt["outputs"] = list(outputs)
     if adapted_on is not None:
         ckpt["adapted_on"] = list(adapted_on)
-    write(path, ckpt)
+    return ckpt
+
+
+def save(path: Path, *args, **kwargs) -> None:
+    """Write the model's :func:`contents` (the same arguments) to ``path`` atomically."""
+    write(path, contents(*args, **kwargs))
 
 
 def write(path: Path, obj) -> None:

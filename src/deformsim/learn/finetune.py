@@ -239,11 +239,12 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
              "" if synthetic is None else f" and {len(synthetic)} synthetic images", seconds, losses[0], losses[-1])
     with replacing(out, identity, "model") as tmp:
         mixture = [(m, c, e.get("weights", "")) for (m, c), e in zip(models[1:], ckpt.get("mixture", []))]
-        checkpoint.save(tmp / checkpoint.MODEL_FILE, models[0][0], cfg, ckpt.get("weights", ""), ckpt.get("history", []),
-                        ckpt.get("split", {}), adapted_on=adapted_on, mixture=mixture)
+        tuned = checkpoint.contents(models[0][0], cfg, ckpt.get("weights", ""), ckpt.get("history", []),
+                                    ckpt.get("split", {}), adapted_on=adapted_on, mixture=mixture)
         if unlabelled is not None:
-            extra = _adapt_unlabelled(tmp / checkpoint.MODEL_FILE, paths, photos["y"].to_numpy(), extra, extra_digests,
-                                      progress)
+            tuned, extra = _adapt_unlabelled(tuned, path, paths, photos["y"].to_numpy(), extra, extra_digests,
+                                             progress)
+        checkpoint.write(tmp / checkpoint.MODEL_FILE, tuned)
         write_json(tmp / "finetune.json", {
             "model": str(path), "real": str(real), "photos": len(paths), "n_deformed": int(photos["y"].sum()),
             "data": None if data is None else str(data), "variant": variant,
@@ -254,24 +255,18 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
                      time.perf_counter() - start, (losses[0], losses[-1]), len(extra))
 
 
-def _adapt_unlabelled(model_file: Path, labelled: list[str], y, paths: list[str], digests: list[str],
-                      progress: bool) -> list[str]:
-    """Adapt the fine-tuned model saved in ``model_file`` to the unlabelled ``paths`` (those not among the
-    ``labelled`` photos, which join the fit with their labels ``y``), in place; the unlabelled photos used."""
+def _adapt_unlabelled(tuned: dict, path: Path, labelled: list[str], y, paths: list[str], digests: list[str],
+                      progress: bool) -> tuple[dict, list[str]]:
+    """The fine-tuned model ``tuned`` (made from ``path``) adapted to the unlabelled ``paths`` (less the copies of a
+    ``labelled`` photo, which join the fit with their labels ``y``), and the unlabelled photos used."""
     import numpy as np
 
-    from deformsim.learn import checkpoint
-    from deformsim.learn.adapt_stage import fit_on
+    from deformsim.learn.adapt_stage import fit_on, not_labelled, with_adapter
     from deformsim.learn.adapter import AdaptRecipe
     from deformsim.learn.predict import Predictor
 
-    known = {file_digest(p) for p in labelled}
-    kept = [(p, d) for p, d in zip(paths, digests) if d not in known]  # a labelled photo counts as labelled
-    ckpt, _ = checkpoint.read_checkpoint(model_file)
-    labels = np.concatenate([np.asarray(y), np.full(len(kept), -1)])
-    adapter = fit_on(Predictor(ckpt, model_file, progress), labelled + [p for p, _ in kept], AdaptRecipe(), labels)[0]
-    log.info("adapted to %d unlabelled photos: estimated %.0f %% deformed", len(kept), 100 * adapter.prior)
-    checkpoint.write(model_file, dict(ckpt, adapter=adapter.to_dict(),
-                                      adapted_unlabelled=sorted(set(ckpt.get("adapted_unlabelled", []))
-                                                                | {d for _, d in kept})))
-    return [p for p, _ in kept]
+    paths, digests = not_labelled(paths, digests, [file_digest(p) for p in labelled])
+    labels = np.concatenate([np.asarray(y), np.full(len(paths), -1)])
+    adapter = fit_on(Predictor(tuned, path, progress), labelled + paths, AdaptRecipe(), labels)[0]
+    log.info("adapted to %d unlabelled photos: estimated %.0f %% deformed", len(paths), 100 * adapter.prior)
+    return with_adapter(tuned, adapter, digests), paths
