@@ -9,7 +9,7 @@ from PIL import Image
 
 from deformsim.errors import UserError
 from deformsim.evaluate.adaptation import kshot_curves, run_adaptation
-from deformsim.evaluate.draws import biased_draw, check_biased, warm_half
+from deformsim.evaluate.draws import Drawing, biased_draw, check_biased, warm_half
 from deformsim.learn.adapter import AdaptRecipe
 
 
@@ -50,7 +50,7 @@ def test_a_probe_fitted_on_a_biased_sample_learns_the_light_and_falls_below_the_
     features = np.column_stack([4.0 * warm + rng.normal(0, 0.3, 80), 1.0 * y + rng.normal(0, 0.5, 80),
                                 rng.normal(size=(80, 3))])
     p0 = np.clip(0.2 + 0.6 * y + rng.normal(0, 0.1, 80), 0.01, 0.99)
-    rows = kshot_curves([p0], [features], y, ["undated"] * 80, [5], 4, AdaptRecipe(), 0.5, 0, warm)
+    rows = kshot_curves([p0], [features], y, ["undated"] * 80, [5], 4, AdaptRecipe(), 0.5, 0, Drawing(y, warm))
     by = {r["curve"]: r for r in rows}
     assert by["unadapted"]["accuracy"] > 0.95
     assert by["labelled probe"]["accuracy"] < 0.8 and by["labelled probe"]["paired_interval"][1] < 0

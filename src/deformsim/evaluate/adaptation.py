@@ -27,7 +27,7 @@ import numpy as np
 
 from deformsim.errors import UserError
 from deformsim.evaluate.adaptation_file import AdaptBenchFile
-from deformsim.evaluate.draws import check_biased, warm_half
+from deformsim.evaluate.draws import Drawing, drawing
 from deformsim.learn.adapter import MIN_PHOTOS, UNLABELLED, AdaptRecipe, fit_adapter
 from deformsim.log import get_logger
 from deformsim.records import made
@@ -91,21 +91,17 @@ def _kshot(p0: np.ndarray, features: np.ndarray, y: np.ndarray, groups: list[str
 
 def kshot_curves(base: list[np.ndarray], features: list[np.ndarray], y: np.ndarray, groups: list[str], ks: list[int],
                  draws: int, recipe: AdaptRecipe, threshold: float, seed: int,
-                 warm: np.ndarray | None = None) -> list[dict]:
+                 sampling: Drawing | None = None) -> list[dict]:
     """Per k and curve: mean accuracy over the models and draws, its standard deviation, and the mean paired
-    difference to the unadapted model on the same photos with a 95 % bootstrap interval over the runs. With ``warm``
-    (:func:`deformsim.evaluate.draws.warm_half`), the k photos are a biased sample (intact from the warm half in even
-    draws)."""
-    from deformsim.evaluate.draws import biased_draw, draw
+    difference to the unadapted model on the same photos with a 95 % bootstrap interval over the runs. The k photos
+    are drawn as ``sampling`` draws them (default: at random)."""
     from deformsim.evaluate.fewshot import mean_interval
 
-    def rows_of(k: int, d: int) -> tuple[np.ndarray, np.ndarray]:
-        rng = np.random.default_rng([seed, k, d])
-        return draw(y, k, rng) if warm is None else biased_draw(y, k, warm, d % 2 == 0, rng)
-
+    sampling = sampling or Drawing(y)
     rows = []
     for k in ks:
-        runs = [_kshot(p0, f, y, groups, *rows_of(k, d), recipe, threshold)
+        runs = [_kshot(p0, f, y, groups, *sampling.rows(k, d, np.random.default_rng([seed, k, d])), recipe,
+                       threshold)
                 for p0, f in zip(base, features) for d in range(draws)]
         for name in ("unadapted", *KSHOT):
             acc = [r[name] for r in runs]
@@ -147,9 +143,7 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
         raise UserError(f"--k {max(ks)}: {real} holds {fewest} photos of its smaller class; k must leave one to score")
     if biased and not ks:
         raise UserError("--biased draws the k labelled photos: give --k too")
-    warm = warm_half(list(table["path"])) if biased else None  # before any model is read
-    for k in ks if biased else ():
-        check_biased(table["y"].to_numpy(), warm, k, real)
+    sampling = drawing(table["y"].to_numpy(), list(table["path"]), ks, biased, real)  # before any model is read
     if len(table) < folds * MIN_PHOTOS:
         raise UserError(f"{real} holds {len(table)} distinct photos: {folds} folds of at least {MIN_PHOTOS} needs "
                         f"{folds * MIN_PHOTOS}")
@@ -181,7 +175,7 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
         acc = rows[name]["paired"]["accuracy"]
         log.info("%s: accuracy %.3f (%+.1f points, %+.1f to %+.1f)", name, rows[name]["accuracy"], 100 * acc["diff"],
                  100 * acc["low"], 100 * acc["high"])
-    kshot = kshot_curves(base, feats, y, sessions, [k for k in ks if k > 0], draws, recipe, threshold, seed, warm)
+    kshot = kshot_curves(base, feats, y, sessions, [k for k in ks if k > 0], draws, recipe, threshold, seed, sampling)
     result = made(AdaptBenchFile, {
         "models": [str(m) for m in models], "real": str(real), "photos": len(paths), "folds": folds, "seed": seed,
         "recipe": asdict(recipe), "true_share": float(y.mean()), "labels": y.tolist(), "groups": groups,

@@ -5,6 +5,7 @@ damage."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -50,3 +51,32 @@ def check_biased(y: np.ndarray, warm: np.ndarray, k: int, real: Path) -> None:
             if held < k + 1:
                 raise UserError(f"--biased --k {k}: {real} holds {held} {light}-lit {name} photos; the biased draw "
                                 f"needs {k} and one left to score")
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """How a benchmark draws k labelled photos of each class from photos labelled ``y``: at random, or with ``warm``
+    (:func:`warm_half`) as a biased sample, the intact ones from the warm half in even draws and from the cool half in
+    odd ones."""
+
+    y: np.ndarray
+    warm: np.ndarray | None = None
+
+    @property
+    def biased(self) -> bool:
+        return self.warm is not None
+
+    def rows(self, k: int, d: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """Draw ``d``'s rows of k photos of each class and the remaining rows."""
+        return draw(self.y, k, rng) if self.warm is None else biased_draw(self.y, k, self.warm, d % 2 == 0, rng)
+
+
+def drawing(y: np.ndarray, paths: list[str], ks: list[int], biased: bool, real: Path) -> Drawing:
+    """The :class:`Drawing` of the photos ``paths`` labelled ``y`` in the folder ``real``; biased, checked first: one line
+    when a lighting half holds too few photos of a class for one of ``ks`` (:func:`check_biased`)."""
+    if not biased:
+        return Drawing(y)
+    warm = warm_half(paths)
+    for k in ks:
+        check_biased(y, warm, k, real)
+    return Drawing(y, warm)

@@ -35,7 +35,7 @@ import numpy as np
 
 from deformsim.atomic import write_bytes
 from deformsim.errors import UserError
-from deformsim.evaluate.draws import check_biased, warm_half
+from deformsim.evaluate.draws import Drawing, drawing
 from deformsim.evaluate.fewshot_file import CURVES, FewshotFile
 from deformsim.log import get_logger
 from deformsim.records import made, read_record
@@ -149,15 +149,7 @@ class _Inputs:
     synthetic: pd.DataFrame | None
     data: Path | None
     variant: str | None
-    warm: np.ndarray | None = None  # a biased sample: which photos are in the warmer-lit half
-
-    def draw(self, k: int, d: int) -> tuple[np.ndarray, np.ndarray]:
-        """The rows adapted on and scored in draw ``d`` of k photos a class (biased: intact from the warm half in even
-        draws)."""
-        from deformsim.evaluate.draws import biased_draw, draw
-
-        rng = np.random.default_rng([k, d])
-        return draw(self.y, k, rng) if self.warm is None else biased_draw(self.y, k, self.warm, d % 2 == 0, rng)
+    sampling: Drawing  # how the k photos are drawn: at random, or as a biased sample
 
 
 def _validate(real: Path, model: Path, out: Path, ks: tuple[int, ...], draws: int, seeds: int,
@@ -198,10 +190,8 @@ def _validate(real: Path, model: Path, out: Path, ks: tuple[int, ...], draws: in
     if variant is not None and data is None:
         raise UserError(f"--variant {variant} needs --data (the synthetic images to mix in)")
     synthetic = load_table(data, variant, cfg.variants[0]) if data is not None else None
-    warm = warm_half(list(table["path"])) if biased else None
-    for k in ks if biased else ():
-        check_biased(y, warm, k, real)
-    return _Inputs(real, out, ckpt, path, cfg, table, y, ks, capped, draws, seeds, synthetic, data, variant, warm)
+    sampling = drawing(y, list(table["path"]), ks, biased, real)
+    return _Inputs(real, out, ckpt, path, cfg, table, y, ks, capped, draws, seeds, synthetic, data, variant, sampling)
 
 
 @dataclass
@@ -307,7 +297,7 @@ def _loop(bench: _Bench, inputs: _Inputs) -> list[dict]:
     runs: list[dict] = []
     for k in inputs.ks:
         for d in range(draws if k else 1):
-            chosen, rest = inputs.draw(k, d)
+            chosen, rest = inputs.sampling.rows(k, d, np.random.default_rng([k, d]))
             for curve, s in _runs_of_draw(k, bench.models, repeats):
                 m = bench.run(curve, k, s, chosen, rest, y)
                 runs.append({"curve": curve, "k": k, "draw": d, "seed": s, "adapted_on": list(table["id"].iloc[chosen]),
@@ -338,7 +328,8 @@ def _summarise(inputs: _Inputs, bench: _Bench, runs: list[dict]) -> dict:
         "photos": {"intact": int((y == 0).sum()), "deformed": int((y == 1).sum())},
         "majority_baseline": max(share, 1 - share),
         "ks": inputs.ks, "capped": inputs.capped, "draws": inputs.draws, "seeds": inputs.seeds,
-        "biased": inputs.warm is not None, "recipe": {"part": recipe.part, "steps": recipe.steps, "batch_size": recipe.batch_size,
+        "biased": inputs.sampling.biased,
+        "recipe": {"part": recipe.part, "steps": recipe.steps, "batch_size": recipe.batch_size,
                    "views": recipe.views, "lr": bench.lrs},
         "data": None if inputs.data is None else str(inputs.data), "variant": inputs.variant,
         "curves": {c: rows for c in bench.models if (rows := _summary(runs, inputs.ks, c, y, 0))},  # --k 0: no imagenet
