@@ -114,7 +114,7 @@ def _pairs(results: ResultsFile, baseline: ResultsFile, variant: str) -> list[tu
 
 
 def paired_differences(new: np.ndarray, base: np.ndarray, y: np.ndarray, threshold: float,
-              rng: np.random.Generator) -> dict[str, Difference]:
+                       rng: np.random.Generator) -> dict[str, Difference]:
     """Observed mean difference per metric and its bootstrap interval over photos and pairs (rows of new/base); the
     resamples are scored in blocks of bounded size (:func:`~deformsim.evaluate.metrics.resample_blocks`)."""
     observed = {k: float((scores(new, y, threshold)[k] - scores(base, y, threshold)[k]).mean()) for k in METRICS}
