@@ -477,6 +477,11 @@ class RenderConfig(_Model):
             raise ValueError(f"render.look Punchy needs view_transform AgX (got {self.view_transform})")
         return self
 
+    @property
+    def part_alpha_only(self) -> bool:
+        """Whether the part alone is rendered for its alpha and dense maps only (``surface.part_colour: false``)."""
+        return self.surface is not None and not self.surface.part_colour
+
 
 class GenerateConfig(_Model):
     """Dataset size, seed and the worker pool. A dataset can be resumed or extended with other values of the
@@ -719,7 +724,7 @@ class Config(_Model):
         if self.train.min_region and not self.render.dense:
             raise ValueError(f"train.min_region={self.train.min_region:g} needs render.dense: true (each image's "
                              "deformed region)")
-        if self.render.surface is not None and not self.render.surface.part_colour and self.composite.surface < 1:
+        if self.render.part_alpha_only and self.composite.surface < 1:
             raise ValueError(f"render.surface.part_colour: false needs composite.surface: 1 (the part alone is not "
                              f"rendered in colour, only its surface scenes can be shown), not {self.composite.surface:g}")
         return self

@@ -186,8 +186,7 @@ def _generate(cfg: Config, out: str | Path, progress: bool, prepared: tuple[Spec
     if cfg.generate.preview:
         from deformsim.dataset.contact_sheet import contact_sheet
 
-        surface = cfg.render.surface
-        shown = "surface" if surface is not None and not surface.part_colour else "rgba"  # what training will see
+        shown = "surface" if cfg.render.part_alpha_only else "rgba"  # what training will see
         contact_sheet(layout, cfg.generate.preview, cfg.generate.seed, shown)
     result.images = len(done) * views
     result.seconds = time.perf_counter() - t0

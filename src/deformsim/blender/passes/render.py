@@ -78,8 +78,7 @@ def render_sample(ctx: RenderContext, p: SampleParams, layout: Layout) -> Render
     target = apply_state(ctx, p)
     scene = ctx.scene
     seconds = []
-    surface = ctx.cfg.render.surface
-    with _alpha_only(scene, surface is not None and not surface.part_colour):
+    with _alpha_only(scene, ctx.cfg.render.part_alpha_only):
         for c, (cam, cp) in enumerate(zip(ctx.cameras, p.cameras)):
             seconds.append(_render_part(ctx, c, cam, cp, target, image_id(p.index, c), layout))
     # after every other image of the sample: the last of these passes resets the Cycles session (blender.scene.ground)
