@@ -167,16 +167,19 @@ class Engine:
                         overwrite=overwrite, progress=self.progress, unlabelled=_path(unlabelled))
 
     def adapt(self, model: str | Path, photos: str | Path | None, out: str | Path, recipe: AdaptRecipe | None = None,
-              overwrite: bool = False, labelled: str | Path | None = None, groups: str = "date"):
+              overwrite: bool = False, labelled: str | Path | None = None, groups: str = "date",
+              data: str | Path | None = None, variant: str | None = None):
         """Adapt a trained model to a folder of unlabelled photos of real parts (no label read), to ``labelled``
         ones (``intact/`` + ``deformed/``, shooting sessions by ``groups``: ``date``, ``none`` or a CSV file), or
-        both; a :class:`deformsim.learn.adapt_stage.Adapted`. A model of other settings or inputs in ``out`` is
-        refused unless ``overwrite``."""
+        both; a :class:`deformsim.learn.adapt_stage.Adapted`. The self-training methods (``fixmatch``,
+        ``adamatch``) mix in the renders of ``data`` (its ``variant``). A model of other settings or inputs in
+        ``out`` is refused unless ``overwrite``."""
         from deformsim.learn.adapt_stage import adapt_model
         from deformsim.learn.adapter import AdaptRecipe
 
         return adapt_model(Path(model), _path(photos), Path(out), recipe or AdaptRecipe(), overwrite=overwrite,
-                           progress=self.progress, labelled=_path(labelled), groups=groups)
+                           progress=self.progress, labelled=_path(labelled), groups=groups, data=_path(data),
+                           variant=variant)
 
     def predict(self, model: str | Path, images: Sequence[str | Path], csv: str | Path | None = None,
                 threshold: float | None = None, adapt: AdaptRecipe | None = None) -> Prediction:

@@ -11,7 +11,9 @@ from deformsim.cli.common import REAL_HELP, console, err_console, fail_cleanly, 
 
 METHOD_HELP = ("probe: a logistic probe on the photos' frozen features, self-trained on the model's own "
                "judgements; prior: the share of deformed parts estimated by EM; probe+prior: both; stack: the model "
-               "plus a residual fitted on the --labelled photos where their cross-validation says it helps "
+               "plus a residual fitted on the --labelled photos where their cross-validation says it helps; "
+               "fixmatch, adamatch: the networks self-trained on weak and strong views of the photos beside the "
+               "renders of --data (FreeMatch's or AdaMatch's thresholds; measured below the probe) "
                "[default: stack with --labelled, else probe]")
 
 
@@ -25,6 +27,11 @@ def adapt(
     groups: str = typer.Option("date", "--groups", help="shooting sessions of the --labelled photos, kept apart by "
                                "the stack's cross-validation: date (EXIF or file name), none, or a path,group CSV file"),
     method: Optional[str] = typer.Option(None, "--method", help=METHOD_HELP, show_default=False),
+    data: Optional[Path] = typer.Option(None, "--data", help="fixmatch, adamatch: the dataset the model was trained "
+                                        "on (its renders are mixed in)"),
+    variant: Optional[str] = typer.Option(None, "--variant", help="fixmatch, adamatch: the variant of --data "
+                                          "[default: the one the model was trained on]", show_default=False),
+    steps: int = typer.Option(200, "--steps", help="fixmatch, adamatch: self-training steps of each network"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace a model in --out made with other settings"),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:
@@ -35,9 +42,10 @@ def adapt(
     --overwrite; the new one is built beside it and swapped in whole."""
     from deformsim.learn.adapter import AdaptRecipe
 
-    recipe = AdaptRecipe(method=method or ("stack" if labelled is not None else "probe"))
+    recipe = AdaptRecipe(method=method or ("stack" if labelled is not None else "probe"), steps=steps)
     result = plain_engine(progress, notify=note(err_console)).adapt(model_dir, photos, out, recipe, overwrite=overwrite,
-                                                                    labelled=labelled, groups=groups)
+                                                                    labelled=labelled, groups=groups, data=data,
+                                                                    variant=variant)
     console.print(f"adapted on {result.photos} photos ({result.labelled} labelled) in {result.seconds:.1f} s: an "
                   f"estimated {result.prior:.0%} deformed; judged deformed {result.deformed_before:.0%} before, "
                   f"{result.deformed_after:.0%} after", highlight=False, soft_wrap=True)

@@ -16,6 +16,7 @@ class Recipe(Record):
     l2: float
     rounds: int
     labelled_weight: float
+    steps: int = 200
 
 
 class Folders(Record):
@@ -23,6 +24,7 @@ class Folders(Record):
 
     photos: Optional[str]
     labelled: Optional[str]
+    data: Optional[str] = None  # the renders a self-training method mixed in
 
 
 class Choice(Record):

@@ -17,7 +17,7 @@ import numpy as np
 from deformsim.errors import UserError
 from deformsim.identity import digest, file_digest
 from deformsim.learn.adapt_file import AdaptFile
-from deformsim.learn.adapter import MIN_PHOTOS, Adapter, AdaptRecipe, fit_adapter
+from deformsim.learn.adapter import MIN_PHOTOS, NETWORKS, Adapter, AdaptRecipe, em_prior, fit_adapter
 from deformsim.learn.stack import Choice, fit_stack
 from deformsim.log import get_logger
 from deformsim.records import made
@@ -116,6 +116,9 @@ def fit_on(predictor, paths: list[str], recipe: AdaptRecipe, labels: np.ndarray 
     ``paths`` (``labels`` 0/1, -1 unlabelled, in shooting sessions ``groups``), the photos' probabilities before
     and after adapting, and what a stacked adapter's cross-validation chose."""
     check_adaptable(predictor)
+    if recipe.method in NETWORKS:
+        raise UserError(f"adapt method {recipe.method} retrains the networks on the renders and the photos: "
+                        "use deformsim adapt with --data")
     if recipe.method == "stack" and labels is None:
         raise UserError("adapt method stack fits labelled photos: give them with --labelled")
     p, features = predictor.outputs_and_features(paths, recipe.probe)
@@ -129,13 +132,16 @@ def fit_on(predictor, paths: list[str], recipe: AdaptRecipe, labels: np.ndarray 
 
 def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe = AdaptRecipe(),
                 overwrite: bool = False, progress: bool = True, labelled: Path | None = None,
-                groups: str = "date") -> Adapted:
+                groups: str = "date", data: Path | None = None, variant: str | None = None) -> Adapted:
     """Adapt ``model`` to the unlabelled ``photos`` and the ``labelled`` ones (either may be ``None``; shooting
     sessions by ``groups``, :mod:`deformsim.dataset.groups`) and save it into ``out`` (``model.pt``, ``adapt.json``).
+    The methods that self-train the networks (``fixmatch``, ``adamatch``: :mod:`deformsim.learn.fixmatch`) take
+    unlabelled photos alone and mix in the renders of ``data`` (its ``variant``, default the one the model was
+    trained on).
 
     Refused with one line before any work: see :func:`unlabelled_photos` and :func:`labelled_photos`; a model that
     is not a label classifier or is adapted already; ``out`` refused as ``deformsim train`` refuses it, or holding
-    the model or the photos.
+    the model or the photos; a self-training method without ``data`` or ``photos``, or with ``labelled``.
     """
     from deformsim.dataset.groups import photo_groups
     from deformsim.learn import checkpoint
@@ -145,12 +151,19 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
     start = time.perf_counter()
     if photos is None and labelled is None:
         raise UserError("adapt needs photos: --photos (unlabelled), --labelled, or both")
+    networks = recipe.method in NETWORKS
+    if networks and (photos is None or labelled is not None or data is None):
+        raise UserError(f"adapt method {recipe.method} self-trains on unlabelled photos (--photos) beside the renders "
+                        "the model was trained on (--data), without --labelled")
+    if not networks and (data is not None or variant is not None):
+        raise UserError(f"--data and --variant go with the methods {' and '.join(NETWORKS)}, not {recipe.method}")
     out = check_folder_target(out, "--out")
     ckpt, path = checkpoint.read_checkpoint(model)
+    renders = _renders(data, variant, path, checkpoint.saved_config(ckpt, path)) if networks else None
     known, y, known_digests = labelled_photos(labelled) if labelled is not None else ([], np.zeros(0, int), [])
     paths, digests = unlabelled_photos(photos) if photos is not None else ([], [])
     paths, digests = not_labelled(paths, digests, known_digests)
-    sources = {"photos": photos, "labelled": labelled}
+    sources = {"photos": photos, "labelled": labelled, "data": data}
     check_apart(out, "--out", {"model": path, **{k: v for k, v in sources.items() if v is not None}})
     check_outside(out, "--out", {k: v for k, v in sources.items() if v is not None})
     sessions = photo_groups(known, groups)
@@ -158,21 +171,47 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
     check_adaptable(predictor)
     identity = {"settings": {"adapt": asdict(recipe), "groups": digest(sessions)},
                 "inputs": {"model": file_digest(path), "photos": digest(digests),
-                           "labelled": digest([f"{d} {int(v)}" for d, v in zip(known_digests, y)])}}
+                           "labelled": digest([f"{d} {int(v)}" for d, v in zip(known_digests, y)]),
+                           **({"renders": digest(sorted(file_digest(p) for p in renders["path"]))} if networks else {})}}
     claim(out, "model", identity, overwrite)
-    labels = np.concatenate([y, np.full(len(paths), -1)]) if known else None
-    adapter, before, after, choice = fit_on(predictor, known + paths, recipe, labels, sessions + ["unlabelled"] * len(paths))
+    if networks:
+        from deformsim.learn.fixmatch import MatchRecipe, self_trained
+
+        adapted = self_trained(ckpt, path, paths, renders, MatchRecipe(steps=recipe.steps, method=recipe.method), progress)
+        before, after = predictor.predict_outputs(paths), Predictor(adapted, path, progress).predict_outputs(paths)
+        prior = em_prior(after)
+        adapted["adapted_unlabelled"] = sorted(set(ckpt.get("adapted_unlabelled", [])) | set(digests))
+    else:
+        labels = np.concatenate([y, np.full(len(paths), -1)]) if known else None
+        adapter, before, after, choice = fit_on(predictor, known + paths, recipe, labels,
+                                                sessions + ["unlabelled"] * len(paths))
+        adapted, prior = with_adapter(ckpt, adapter, digests, known_digests), adapter.prior
     threshold = predictor.cfg.threshold
     seconds = time.perf_counter() - start
-    result = Adapted(out / checkpoint.MODEL_FILE, len(known) + len(paths), adapter.prior,
-                     float((before >= threshold).mean()), float((after >= threshold).mean()), seconds, len(known), choice)
+    result = Adapted(out / checkpoint.MODEL_FILE, len(known) + len(paths), prior, float((before >= threshold).mean()),
+                     float((after >= threshold).mean()), seconds, len(known), None if networks else choice)
     log.info("adapted (%s) on %d photos (%d labelled) in %.1f s: estimated %.0f %% deformed; judged deformed "
-             "%.0f %% -> %.0f %%", recipe.method, result.photos, len(known), seconds, 100 * adapter.prior,
+             "%.0f %% -> %.0f %%", recipe.method, result.photos, len(known), seconds, 100 * prior,
              100 * result.deformed_before, 100 * result.deformed_after)
     with replacing(out, identity, "model") as tmp:
-        checkpoint.write(tmp / checkpoint.MODEL_FILE, with_adapter(ckpt, adapter, digests, known_digests))
+        checkpoint.write(tmp / checkpoint.MODEL_FILE, adapted)
         made(AdaptFile, {"model": str(path), "groups": groups, "recipe": asdict(recipe),
                          "folders": {k: None if v is None else str(v) for k, v in sources.items()},
                          "protocol": "unlabelled photos' labels never read",
                          **{k: v for k, v in asdict(result).items() if k != "model_path"}}).write(tmp / "adapt.json")
     return result
+
+
+def _renders(data: Path, variant: str | None, path: Path, cfg):
+    """The renders a self-training method mixes in: ``data``'s ``variant`` (a generated dataset; or a folder of images
+    in intact/ and deformed/), default the variant the model in ``path`` was trained on (its folder's
+    ``inputs.json``), else the config's first."""
+    from deformsim.dataset.layout import Layout
+    from deformsim.dataset.tables import load_table
+    from deformsim.outputs import read_inputs
+
+    if variant is None and Layout(data).manifest.is_file():
+        inputs = (read_inputs(path.parent) or {}).get("inputs")
+        recorded = inputs.get("variant") if isinstance(inputs, dict) else None
+        variant = recorded if isinstance(recorded, str) else None
+    return load_table(data, variant, cfg.variants[0])

@@ -27,17 +27,21 @@ from deformsim.errors import UserError
 
 MIN_PHOTOS = 8  # the fewest unlabelled photos whose feature statistics and prior an adapter estimates
 UNLABELLED = ("probe", "prior", "probe+prior")  # what adapts on unlabelled photos alone
-METHODS = (*UNLABELLED, "stack")  # stack: a residual on labelled photos (deformsim.learn.stack)
+ADAPTERS = (*UNLABELLED, "stack")  # stack: a residual on labelled photos (deformsim.learn.stack)
+NETWORKS = ("fixmatch", "adamatch")  # self-training of the networks themselves (deformsim.learn.fixmatch)
+METHODS = (*ADAPTERS, *NETWORKS)
 
 
 @dataclass(frozen=True)
 class AdaptRecipe:
-    """How a model adapts to photos: ``probe`` (the feature probe), ``prior`` (the EM prior shift) or both."""
+    """How a model adapts to photos: ``probe`` (the feature probe), ``prior`` (the EM prior shift) or both, ``stack``
+    (with labelled photos), or the networks self-trained (``fixmatch``, ``adamatch``)."""
 
     method: str = "probe"
     l2: float = 1.0  # the probe's L2 penalty on standardised features (against the photos' mean loss)
     rounds: int = 1  # self-training rounds: targets from the synthetic model, then from the probe
     labelled_weight: float = 4.0  # a labelled photo counts as this many fully confident unlabelled ones
+    steps: int = 200  # fixmatch, adamatch: self-training steps of each network
 
     @property
     def probe(self) -> bool:
@@ -51,6 +55,8 @@ class AdaptRecipe:
             raise UserError(f"adapt l2 must lie in [1e-6, 1e6], got {self.l2}")
         if not 1 <= self.rounds <= 20:
             raise UserError(f"adapt rounds must lie in [1, 20], got {self.rounds}")
+        if not 1 <= self.steps <= 100_000:
+            raise UserError(f"adapt steps must lie in [1, 100000], got {self.steps}")
         if not 0 < self.labelled_weight <= 1e4:
             raise UserError(f"adapt labelled_weight must lie in (0, 1e4], got {self.labelled_weight}")
 
@@ -147,7 +153,7 @@ class Adapter:
         try:
             adapter = cls(**data)
             d = len(adapter.coef)
-            ok = (adapter.method in METHODS and len(adapter.mean) == len(adapter.scale) and d in (0, len(adapter.mean))
+            ok = (adapter.method in ADAPTERS and len(adapter.mean) == len(adapter.scale) and d in (0, len(adapter.mean))
                   and all(np.isfinite(np.asarray(v, dtype=np.float64)).all() for v in (adapter.mean, adapter.scale,
                                                                                         adapter.coef))
                   and min(adapter.scale, default=1.0) > 0 and np.isfinite([adapter.shift, adapter.bias, adapter.anchor]).all())

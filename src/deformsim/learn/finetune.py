@@ -84,10 +84,10 @@ def check_unseen(model: str | Path, paths: Iterable[str | Path]) -> None:
 
 
 def photo_views(model: DeformNet, paths: list[str], size: int, views: int, seed: int, batch_size: int,
-                progress: bool = False, crop: str = "none") -> torch.Tensor:
+                progress: bool = False, crop: str = "none", augment=None) -> torch.Tensor:
     """Stem activations (1 + views, N, C, H, W) of each photo as the model's test-time ``crop`` shows it: its plain
-    image (cached), then augmented views (drawn from torch's RNG seeded by ``seed``, the caller's RNG left as it
-    was)."""
+    image (cached), then views augmented by ``augment`` (default :func:`deformsim.learn.data.augmenter`; drawn from
+    torch's RNG seeded by ``seed``, the caller's RNG left as it was)."""
     from deformsim.learn.data import ImageSet, augmenter
     from deformsim.learn.features import cached_stem, pass_size
 
@@ -95,7 +95,7 @@ def photo_views(model: DeformNet, paths: list[str], size: int, views: int, seed:
     if views:
         images = ImageSet(paths, size, crop=crop)
         plain = [images[i] for i in range(len(paths))]
-        augment = augmenter(size)
+        augment = augment or augmenter(size)
         was_training = model.training
         model.eval()
         with torch.random.fork_rng(devices=[]), torch.inference_mode():

@@ -1,0 +1,183 @@
+"""Self-training with weak and strong views of unlabelled photos (FixMatch, Sohn et al. 2020), its thresholds
+self-adaptive and per class (FreeMatch, Wang et al. 2023), the renders mixed in as the labelled stream.
+
+Each step draws a batch of renders with their labels and a batch of photos. A photo's plain image (the weak view)
+gives a pseudo-label, the class the model predicts, without a gradient; one of its strongly augmented views
+(:func:`strong_augmenter`) is trained toward that label when the model's confidence on the plain image clears its
+class's threshold. The thresholds follow FreeMatch: the global one is an exponential moving average (EMA) of the
+model's mean confidence on the photos, starting at 1/2 (every pseudo-label counts at first, fewer as the model
+grows sure); each class's is the global one scaled by the EMA of that class's mean probability over its maximum, so
+the class the photos rarely show is not starved. What trains is the networks' trainable part, as ``deformsim
+finetune`` trains it (:mod:`deformsim.learn.finetune`, ``part="tail"``): the stem stays frozen and each photo's
+views pass it once.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import torch
+from torch import nn
+
+from deformsim.errors import UserError
+from deformsim.learn.adapter import NETWORKS
+from deformsim.learn.device import adam
+from deformsim.learn.models import DeformNet
+from deformsim.log import get_logger
+from deformsim.schema import MAX_SEED, shown
+
+log = get_logger(__name__)
+
+
+
+@dataclass(frozen=True)
+class MatchRecipe:
+    """How a model self-trains on unlabelled photos: steps, learning rate, batch sizes, views, the EMA's momentum."""
+
+    steps: int = 200
+    lr: float = 1e-4
+    batch_size: int = 16  # renders per step
+    ratio: int = 2  # photos per step for each render (FixMatch's mu)
+    views: int = 4  # strong views per photo
+    weight: float = 1.0  # the photos' loss beside the renders' (FixMatch's lambda_u)
+    momentum: float = 0.99  # the thresholds' EMA (fixmatch)
+    method: str = "fixmatch"  # fixmatch: FreeMatch's self-adaptive thresholds; adamatch: AdaMatch's relative one
+    relative: float = 0.9  # adamatch: the threshold is this share of the renders' mean confidence
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name, low, high in (("steps", 1, 100_000), ("batch_size", 1, 4096), ("ratio", 1, 64),
+                                ("views", 1, 64)):
+            if not low <= getattr(self, name) <= high:
+                raise UserError(f"fixmatch {name} must lie in [{low}, {high}], got {getattr(self, name)}")
+        if not 0 < self.lr <= 1:
+            raise UserError(f"fixmatch lr must lie in (0, 1], got {self.lr}")
+        if not 0 <= self.weight <= 100:
+            raise UserError(f"fixmatch weight must lie in [0, 100], got {self.weight}")
+        if self.method not in NETWORKS:
+            raise UserError(f"self-training method must be one of {', '.join(NETWORKS)}, got {self.method!r}")
+        if not 0 < self.relative <= 1:
+            raise UserError(f"fixmatch relative must lie in (0, 1], got {self.relative}")
+        if not 0 <= self.momentum < 1:
+            raise UserError(f"fixmatch momentum must lie in [0, 1), got {self.momentum}")
+        if not (isinstance(self.seed, int) and 0 <= self.seed <= MAX_SEED):
+            raise UserError(f"--seed {shown(self.seed)}: a seed is a whole number from 0 to {MAX_SEED}")
+
+
+def strong_augmenter(size: int):
+    """FixMatch's strong view: :func:`deformsim.learn.data.augmenter`'s crop, flip, jitter, blur and noise, then
+    RandAugment (2 operations at magnitude 9) and a random erasure (Cutout). Draws from torch's global RNG."""
+    from torchvision.transforms import v2
+
+    from deformsim.learn.data import augmenter
+
+    return v2.Compose([augmenter(size), v2.RandAugment(num_ops=2, magnitude=9),
+                       v2.RandomErasing(p=1.0, scale=(0.02, 0.15), value=0.5)])
+
+
+class Thresholds:
+    """FreeMatch's self-adaptive thresholds for two classes (intact, deformed)."""
+
+    def __init__(self, momentum: float):
+        self.momentum = momentum
+        self.confidence = torch.tensor(0.5)
+        self.classes = torch.full((2,), 0.5)
+
+    def update(self, p: torch.Tensor) -> None:
+        """Fold in a batch's P(deformed) ``p`` of the photos' weak views."""
+        m = self.momentum
+        self.confidence = m * self.confidence + (1 - m) * torch.maximum(p, 1 - p).mean()
+        self.classes = m * self.classes + (1 - m) * torch.stack([1 - p, p], 1).mean(0)
+
+    def mask(self, p: torch.Tensor) -> torch.Tensor:
+        """1 where the weak view's confidence clears its predicted class's threshold, else 0."""
+        per_class = self.classes / self.classes.max() * self.confidence
+        return (torch.maximum(p, 1 - p) >= per_class[(p >= 0.5).long()]).float()
+
+
+def adamatch(p_s: torch.Tensor, p: torch.Tensor, relative: float, progress: float) -> tuple:
+    """AdaMatch's (Berthelot et al. 2022) pseudo-labels of a batch: the photos' P(deformed) ``p`` aligned to the
+    renders' class distribution (batch means of ``p_s``, the renders' P(deformed)), the mask of those whose
+    confidence clears ``relative`` times the renders' mean confidence, the photos' loss weight, warmed up over the
+    first half of training (``progress`` from 0 to 1), and that threshold."""
+    source, target = torch.stack([1 - p_s, p_s], 1).mean(0), torch.stack([1 - p, p], 1).mean(0)
+    aligned = torch.stack([1 - p, p], 1) * source / target
+    p = aligned[:, 1] / aligned.sum(1)
+    level = relative * torch.maximum(p_s, 1 - p_s).mean().item()
+    return p, (torch.maximum(p, 1 - p) >= level).float(), 0.5 - math.cos(min(math.pi, 2 * math.pi * progress)) / 2, level
+
+
+def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
+               renders: tuple[torch.Tensor, torch.Tensor], recipe: MatchRecipe) -> list[dict]:
+    """Train ``model``'s trainable part in place on the renders' stems and labels ``renders`` and the photos' stems:
+    ``weak`` (N, ...) of their plain images and ``strong`` (views, N, ...) of their strong views. Per step: the
+    loss, the share of photos whose pseudo-label counted, and the threshold (FreeMatch's global one)."""
+    if model.target != "label":
+        raise UserError(f"self-training needs a model of train.target label, not {model.target}")
+    device = model.mean.device
+    opt = adam([p for p in model.parameters() if p.requires_grad], recipe.lr)
+    order = torch.Generator().manual_seed(recipe.seed)
+    thresholds = Thresholds(recipe.momentum)
+    x_s, y_s = renders[0], renders[1].float()
+    trace = []
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(recipe.seed)  # the head's dropout draws from here
+        for step in range(recipe.steps):
+            s = torch.randint(len(y_s), (recipe.batch_size,), generator=order)
+            u = torch.randint(weak.shape[0], (recipe.batch_size * recipe.ratio,), generator=order)
+            v = torch.randint(strong.shape[0], (len(u),), generator=order)
+            model.eval()
+            with torch.no_grad():
+                p_s, p = torch.sigmoid(model.tail(torch.cat([x_s[s], weak[u]]).to(device))).cpu().split([len(s), len(u)])
+            if recipe.method == "adamatch":
+                p, mask, weight, level = adamatch(p_s, p, recipe.relative, step / recipe.steps)
+            else:
+                thresholds.update(p)
+                mask, weight, level = thresholds.mask(p), 1.0, thresholds.confidence.item()
+            model.head.train()
+            logits = model.tail(torch.cat([x_s[s], strong[v, u]]).to(device)).cpu()
+            loss_s = nn.functional.binary_cross_entropy_with_logits(logits[: len(s)], y_s[s])
+            loss_u = (nn.functional.binary_cross_entropy_with_logits(logits[len(s):], (p >= 0.5).float(),
+                                                                     reduction="none") * mask).mean()
+            loss = loss_s + recipe.weight * weight * loss_u
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            trace.append({"loss": loss.item(), "mask": mask.mean().item(), "threshold": level})
+    model.eval()
+    return trace
+
+
+def self_trained(ckpt: dict, path: Path, photos: list[str], renders, recipe: MatchRecipe,
+                 progress: bool = False) -> dict:
+    """The saved model ``ckpt`` (read from ``path``) with each of its networks (every ensemble member of every
+    backbone, member k seeded ``recipe.seed + k``) self-trained on ``photos`` beside the ``renders`` (a table of
+    path and y); what it records besides is kept."""
+    from deformsim.learn import checkpoint
+    from deformsim.learn.device import pick_device
+    from deformsim.learn.features import cached_stem
+    from deformsim.learn.finetune import photo_views
+    from deformsim.learn.models import members
+
+    cfg = checkpoint.saved_config(ckpt, path)
+    device = pick_device(cfg.device)
+    y = torch.tensor(renders["y"].to_numpy())
+    nets = [checkpoint.restore(ckpt, path), *checkpoint.restore_mixture(ckpt, path)]
+    for net, net_cfg in nets:
+        net.to(device)
+        size, batch = net_cfg.image_size, net_cfg.batch_size
+        views = photo_views(net, photos, size, recipe.views, recipe.seed, batch, progress, net_cfg.crop,
+                            strong_augmenter(size))
+        stems = cached_stem(net, list(renders["path"]), size, batch, progress)
+        for k, member in enumerate(members(net)):
+            trace = self_train(member, views[0], views[1:], (stems, y), replace(recipe, seed=recipe.seed + k))
+            late = trace[len(trace) // 2:]
+            log.info("%s member %d self-trained: loss %.3f -> %.3f; in the last half of the steps %.0f %% of the "
+                     "photos' pseudo-labels counted (threshold %.3f at the end)", net.backbone, k, trace[0]["loss"],
+                     trace[-1]["loss"], 100 * sum(t["mask"] for t in late) / len(late), trace[-1]["threshold"])
+    mixture = [(m, c, e.get("weights", "")) for (m, c), e in zip(nets[1:], ckpt.get("mixture", []))]
+    tuned = checkpoint.contents(nets[0][0], cfg, ckpt.get("weights", ""), ckpt.get("history", []),
+                                ckpt.get("split", {}), adapted_on=ckpt.get("adapted_on"), mixture=mixture)
+    return tuned | {k: ckpt[k] for k in ("adapted_unlabelled",) if k in ckpt}
