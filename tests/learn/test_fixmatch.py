@@ -16,8 +16,8 @@ from deformsim.cli.app import app
 from deformsim.errors import UserError
 from deformsim.learn.adapt_file import AdaptFile
 from deformsim.learn.adapt_stage import adapt_model
-from deformsim.learn.adapter import AdaptRecipe
-from deformsim.learn.fixmatch import MatchRecipe, Thresholds, adamatch
+from deformsim.learn.adapter import NETWORKS, AdaptRecipe
+from deformsim.learn.fixmatch import MatchRecipe, Thresholds, adamatch, class_confusion
 from deformsim.learn.predict import load
 from deformsim.records import read_record
 from tests.learn.blobs import make_blobs
@@ -59,7 +59,7 @@ def test_the_renders_keep_the_model_right_on_them(trained, blobs, unlabelled, tm
     """However wrong its pseudo-labels, the renders mixed into every step keep the model judging them as before."""
     paths, y = list(blobs["path"]), blobs["y"].to_numpy()
     before = ((load(trained, progress=False).predict_proba(paths) >= 0.5) == y).mean()
-    for method in ("fixmatch", "adamatch"):
+    for method in NETWORKS:
         result = adapt_model(trained, unlabelled[1], tmp_path / method, AdaptRecipe(method=method, steps=20), progress=False,
                              data=renders_of(blobs))
         after = ((load(result.model_path, progress=False).predict_proba(paths) >= 0.5) == y).mean()
@@ -74,7 +74,7 @@ def test_what_self_training_cannot_take_is_one_line_before_any_work(trained, blo
     cases = [(dict(photos=flat, recipe=fixmatch), "--data"),
              (dict(photos=flat, recipe=fixmatch, data=renders_of(blobs), labelled=root), "without --labelled"),
              (dict(photos=None, recipe=fixmatch, data=renders_of(blobs), labelled=root), "--photos"),
-             (dict(photos=flat, recipe=AdaptRecipe(), data=renders_of(blobs)), "go with the methods fixmatch"),
+             (dict(photos=flat, recipe=AdaptRecipe(), data=renders_of(blobs)), "go with the methods fixmatch, adamatch, mcc"),
              (dict(photos=flat, recipe=fixmatch, data=renders_of(blobs), variant="backgrounds"), "generated dataset")]
     for kwargs, message in cases:
         with pytest.raises(UserError, match=message):
@@ -118,3 +118,12 @@ def test_adamatch_aligns_the_photos_to_the_renders_class_balance():
     assert torch.stack([1 - aligned, aligned], 1).mean(0)[1] < torch.stack([1 - p, p], 1).mean(0)[1]
     assert level == pytest.approx(0.9 * 0.99) and weight == 0.0
     assert np.array_equal(mask.numpy(), (torch.maximum(aligned, 1 - aligned) >= level).float().numpy())
+
+
+def test_class_confusion_is_lowest_for_sure_judgements_of_both_classes():
+    sure = class_confusion(torch.tensor([8.0, -8.0] * 8))
+    unsure = class_confusion(torch.tensor([0.3, -0.2] * 8))
+    assert 0 <= sure < 0.1 < 0.4 < unsure  # logits 8 at temperature 2.5 still leave 4 % across
+    z = torch.tensor([0.3, -0.2] * 8, requires_grad=True)
+    class_confusion(z).backward()
+    assert (z.grad[0] < 0) and (z.grad[1] > 0)  # minimising it pushes each photo further toward its side

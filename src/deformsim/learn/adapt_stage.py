@@ -153,10 +153,10 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
         raise UserError("adapt needs photos: --photos (unlabelled), --labelled, or both")
     networks = recipe.method in NETWORKS
     if networks and (photos is None or labelled is not None or data is None):
-        raise UserError(f"adapt method {recipe.method} self-trains on unlabelled photos (--photos) beside the renders "
+        raise UserError(f"adapt method {recipe.method} learns from unlabelled photos (--photos) beside the renders "
                         "the model was trained on (--data), without --labelled")
     if not networks and (data is not None or variant is not None):
-        raise UserError(f"--data and --variant go with the methods {' and '.join(NETWORKS)}, not {recipe.method}")
+        raise UserError(f"--data and --variant go with the methods {', '.join(NETWORKS)}, not {recipe.method}")
     out = check_folder_target(out, "--out")
     ckpt, path = checkpoint.read_checkpoint(model)
     renders = _renders(data, variant, path, checkpoint.saved_config(ckpt, path)) if networks else None

@@ -28,20 +28,20 @@ from deformsim.errors import UserError
 MIN_PHOTOS = 8  # the fewest unlabelled photos whose feature statistics and prior an adapter estimates
 UNLABELLED = ("probe", "prior", "probe+prior")  # what adapts on unlabelled photos alone
 ADAPTERS = (*UNLABELLED, "stack")  # stack: a residual on labelled photos (deformsim.learn.stack)
-NETWORKS = ("fixmatch", "adamatch")  # self-training of the networks themselves (deformsim.learn.fixmatch)
+NETWORKS = ("fixmatch", "adamatch", "mcc")  # the networks themselves trained on (deformsim.learn.fixmatch)
 METHODS = (*ADAPTERS, *NETWORKS)
 
 
 @dataclass(frozen=True)
 class AdaptRecipe:
     """How a model adapts to photos: ``probe`` (the feature probe), ``prior`` (the EM prior shift) or both, ``stack``
-    (with labelled photos), or the networks self-trained (``fixmatch``, ``adamatch``)."""
+    (with labelled photos), or the networks trained on with them (``fixmatch``, ``adamatch``, ``mcc``)."""
 
     method: str = "probe"
     l2: float = 1.0  # the probe's L2 penalty on standardised features (against the photos' mean loss)
     rounds: int = 1  # self-training rounds: targets from the synthetic model, then from the probe
     labelled_weight: float = 4.0  # a labelled photo counts as this many fully confident unlabelled ones
-    steps: int = 200  # fixmatch, adamatch: self-training steps of each network
+    steps: int = 200  # fixmatch, adamatch, mcc: training steps of each network
 
     @property
     def probe(self) -> bool:

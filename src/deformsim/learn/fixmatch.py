@@ -1,15 +1,21 @@
-"""Self-training with weak and strong views of unlabelled photos (FixMatch, Sohn et al. 2020), its thresholds
-self-adaptive and per class (FreeMatch, Wang et al. 2023), the renders mixed in as the labelled stream.
+"""The networks trained on unlabelled photos beside the renders (``deformsim adapt --method fixmatch|adamatch|mcc``).
 
-Each step draws a batch of renders with their labels and a batch of photos. A photo's plain image (the weak view)
-gives a pseudo-label, the class the model predicts, without a gradient; one of its strongly augmented views
-(:func:`strong_augmenter`) is trained toward that label when the model's confidence on the plain image clears its
-class's threshold. The thresholds follow FreeMatch: the global one is an exponential moving average (EMA) of the
-model's mean confidence on the photos, starting at 1/2 (every pseudo-label counts at first, fewer as the model
-grows sure); each class's is the global one scaled by the EMA of that class's mean probability over its maximum, so
-the class the photos rarely show is not starved. What trains is the networks' trainable part, as ``deformsim
-finetune`` trains it (:mod:`deformsim.learn.finetune`, ``part="tail"``): the stem stays frozen and each photo's
-views pass it once.
+Each step draws a batch of renders with their labels and a batch of photos, and adds a loss on the photos to the
+renders' cross-entropy:
+
+- ``fixmatch`` (Sohn et al. 2020) with FreeMatch's thresholds (Wang et al. 2023): a photo's plain image (the weak
+  view) gives a pseudo-label, the class the model predicts, without a gradient; one of its strongly augmented views
+  (:func:`strong_augmenter`) is trained toward that label when the model's confidence on the plain image clears its
+  class's threshold. The global threshold is an exponential moving average (EMA) of the model's mean confidence on
+  the photos, starting at 1/2; each class's is the global one scaled by the EMA of that class's mean probability over
+  its maximum, so the class the photos rarely show is not starved.
+- ``adamatch`` (Berthelot et al. 2022, FixMatch for domain shift): the photos' probabilities aligned to the renders'
+  class balance, the threshold a share of the model's mean confidence on the renders, the photos' loss warmed up.
+- ``mcc`` (Minimum Class Confusion, Jin et al. 2020): no pseudo-label; the strong views' predictions are pushed
+  apart from the other class (:func:`class_confusion`).
+
+What trains is the networks' trainable part, as ``deformsim finetune`` trains it (:mod:`deformsim.learn.finetune`,
+``part="tail"``): the stem stays frozen and each photo's views pass it once.
 """
 
 from __future__ import annotations
@@ -43,7 +49,7 @@ class MatchRecipe:
     views: int = 4  # strong views per photo
     weight: float = 1.0  # the photos' loss beside the renders' (FixMatch's lambda_u)
     momentum: float = 0.99  # the thresholds' EMA (fixmatch)
-    method: str = "fixmatch"  # fixmatch: FreeMatch's self-adaptive thresholds; adamatch: AdaMatch's relative one
+    method: str = "fixmatch"  # fixmatch, adamatch or mcc (the module's docstring)
     relative: float = 0.9  # adamatch: the threshold is this share of the renders' mean confidence
     seed: int = 0
 
@@ -57,7 +63,7 @@ class MatchRecipe:
         if not 0 <= self.weight <= 100:
             raise UserError(f"fixmatch weight must lie in [0, 100], got {self.weight}")
         if self.method not in NETWORKS:
-            raise UserError(f"self-training method must be one of {', '.join(NETWORKS)}, got {self.method!r}")
+            raise UserError(f"the networks' adapt method must be one of {', '.join(NETWORKS)}, got {self.method!r}")
         if not 0 < self.relative <= 1:
             raise UserError(f"fixmatch relative must lie in (0, 1], got {self.relative}")
         if not 0 <= self.momentum < 1:
@@ -109,6 +115,20 @@ def adamatch(p_s: torch.Tensor, p: torch.Tensor, relative: float, progress: floa
     return p, (torch.maximum(p, 1 - p) >= level).float(), 0.5 - math.cos(min(math.pi, 2 * math.pi * progress)) / 2, level
 
 
+def class_confusion(logits: torch.Tensor, temperature: float = 2.5) -> torch.Tensor:
+    """Minimum Class Confusion (Jin et al. 2020, as thuml's Transfer-Learning-Library computes it) of a batch of
+    photos' logits of P(deformed): the share of probability mass the batch puts across the two classes, each photo
+    weighted by its certainty."""
+    z = logits / temperature
+    p = torch.stack([torch.sigmoid(-z), torch.sigmoid(z)], 1)
+    entropy = -(p * torch.log(p + 1e-5)).sum(1).detach()
+    weight = 1 + torch.exp(-entropy)
+    weight = (len(p) * weight / weight.sum()).unsqueeze(1)
+    confusion = (p * weight).T @ p
+    confusion = confusion / confusion.sum(1)
+    return (confusion.sum() - confusion.trace()) / 2
+
+
 def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
                renders: tuple[torch.Tensor, torch.Tensor], recipe: MatchRecipe) -> list[dict]:
     """Train ``model``'s trainable part in place on the renders' stems and labels ``renders`` and the photos' stems:
@@ -133,14 +153,17 @@ def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
                 p_s, p = torch.sigmoid(model.tail(torch.cat([x_s[s], weak[u]]).to(device))).cpu().split([len(s), len(u)])
             if recipe.method == "adamatch":
                 p, mask, weight, level = adamatch(p_s, p, recipe.relative, step / recipe.steps)
-            else:
+            elif recipe.method == "fixmatch":
                 thresholds.update(p)
                 mask, weight, level = thresholds.mask(p), 1.0, thresholds.confidence.item()
             model.head.train()
             logits = model.tail(torch.cat([x_s[s], strong[v, u]]).to(device)).cpu()
             loss_s = nn.functional.binary_cross_entropy_with_logits(logits[: len(s)], y_s[s])
-            loss_u = (nn.functional.binary_cross_entropy_with_logits(logits[len(s):], (p >= 0.5).float(),
-                                                                     reduction="none") * mask).mean()
+            if recipe.method == "mcc":
+                loss_u, mask, weight, level = class_confusion(logits[len(s):]), torch.ones(len(u)), 1.0, 0.0
+            else:
+                loss_u = (nn.functional.binary_cross_entropy_with_logits(logits[len(s):], (p >= 0.5).float(),
+                                                                         reduction="none") * mask).mean()
             loss = loss_s + recipe.weight * weight * loss_u
             opt.zero_grad()
             loss.backward()
