@@ -187,6 +187,16 @@ def test_cli_adapt_predict_adapt_and_benchmark(trained, photos, tmp_path):
     refused = runner.invoke(app, ["bench", "adapt", str(trained), "--real", str(more), "--out", str(tmp_path / "c"),
                                   "--k", "10"])
     assert refused.exit_code in (1, 2) and "k must leave one to score" in refused.output
+    curves = runner.invoke(app, ["bench", "adapt", str(trained), "--real", str(more), "--out", str(tmp_path / "n"),
+                                 "--n", "8", "--draws", "2", "--methods", "probe", "--no-progress"])
+    assert curves.exit_code == 0, curves.output
+    assert "n unlabelled photos" in curves.output
+    rows = read_record(tmp_path / "n" / "adapt.json", AdaptBenchFile).unlabelled
+    assert [(r.n, r.curve, r.runs) for r in rows] == [(8, "probe transductive", 2), (8, "probe inductive", 2)]
+    refused = runner.invoke(app, ["bench", "adapt", str(trained), "--real", str(more), "--out", str(tmp_path / "c"),
+                                  "--n", "8,12"])
+    assert refused.exit_code in (1, 2) and "--n 12: adapting needs at least 8 photos, and 2 folds of 20 photos leave 10" \
+        in refused.output
 
 
 def test_the_onnx_export_holds_the_adapter(trained, photos, tmp_path):

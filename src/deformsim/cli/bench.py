@@ -183,7 +183,10 @@ def adapt(
     k: str = typer.Option("", "--k", help="also comma-separated labelled photos per class (e.g. 1,2,5,10,20): the "
                           "model beside a probe on those photos alone, the probe on them with the rest unlabelled, "
                           "and the model stacked with a residual on them, scored on the rest"),
-    draws: int = typer.Option(5, "--draws", help="draws of the k photos per model"),
+    n: str = typer.Option("", "--n", help="also comma-separated counts of unlabelled photos (e.g. 10,20,30): each "
+                          "method adapted on n photos drawn at random, transductive (scored on them) and inductive "
+                          "(drawn from the other folds)"),
+    draws: int = typer.Option(5, "--draws", help="draws of the k (or n) photos per model"),
     groups: str = typer.Option("date", "--groups", help="shooting sessions of the photos, which the stacked curve's "
                                "cross-validation keeps apart: date (EXIF or file name), none, or a path,group CSV file"),
     biased: bool = typer.Option(False, "--biased", help=BIASED_HELP),
@@ -198,7 +201,7 @@ def adapt(
 
     result = run_adaptation(models, real, out, tuple(m.strip() for m in methods.split(",") if m.strip()), folds,
                             seed=seed, progress=progress, ks=parse_ks(k) if k else [], draws=draws,
-                            groups=groups, biased=biased)
+                            groups=groups, biased=biased, ns=parse_ks(n, "--n", "photos", 1) if n else [])
     adaptation_summary(result)
     console.print(f"results: {out / 'adapt.json'}", highlight=False, soft_wrap=True)
 

@@ -182,3 +182,13 @@ def adaptation_summary(results: AdaptBenchFile) -> None:
                                                   f"to {100 * r.paired_interval[1]:+.1f})")
             kshot.add_row(str(r.k), escape(r.curve), str(r.runs), f"{r.accuracy:.3f} ± {r.accuracy_std:.3f}", paired)
         print_table(kshot, None)
+    if results.unlabelled:
+        curve = Table(title=f"n unlabelled photos drawn at random ({results.draws} draws per model)",
+                      header_style="bold")
+        for col in ("n", "model", "runs", "accuracy", "unadapted, same photos", "vs unadapted (95 % interval)"):
+            curve.add_column(col, justify="left" if col == "model" else "right")
+        for r in results.unlabelled:
+            curve.add_row(str(r.n), escape(r.curve), str(r.runs), f"{r.accuracy:.3f} ± {r.accuracy_std:.3f}",
+                          f"{r.unadapted:.3f}", f"{100 * r.paired:+.1f} ({100 * r.paired_interval[0]:+.1f} to "
+                          f"{100 * r.paired_interval[1]:+.1f})")
+        print_table(curve, None)

@@ -10,7 +10,8 @@ Two protocols, both reading the folder's labels for scoring only:
 With ``ks``, k labelled photos of each class are drawn at random and the rest scored; ``biased`` draws them as a
 biased sample does instead: each class's k photos from a different lighting (the intact ones from the warmer half of
 the folder and the deformed ones from the cooler half, or the reverse in every other draw; from the
-photos' pixels; :mod:`deformsim.evaluate.draws`), which a model fitted on them can mistake for the damage.
+photos' pixels; :mod:`deformsim.evaluate.draws`), which a model fitted on them can mistake for the damage. With
+``ns``, each method is adapted on n unlabelled photos drawn at random, under both protocols: how many photos it needs.
 
 Several models (one per render draw, say) are pooled: per method and protocol, accuracy, F1 and AUC as mean and
 standard deviation over the models, and the paired difference of each metric to the unadapted models with a 95 %
@@ -113,14 +114,55 @@ def kshot_curves(base: list[np.ndarray], features: list[np.ndarray], y: np.ndarr
     return rows
 
 
+def unlabelled_curves(base: list[np.ndarray], features: list[np.ndarray | None], y: np.ndarray, fold: np.ndarray,
+                      ns: list[int], draws: int, recipes: dict[str, AdaptRecipe], threshold: float,
+                      seed: int) -> list[dict]:
+    """Per n, method and protocol: the accuracy of each model adapted on n unlabelled photos drawn at random
+    (``draws`` draws per model, the same photos for every method), mean and standard deviation over the runs, the
+    unadapted model's on the same photos, and the mean paired difference with a 95 % bootstrap interval over the
+    runs. Transductive: adapted on the n photos and scored on them; inductive: for each fold, adapted on n photos of
+    the other folds and scored on the fold."""
+    from deformsim.evaluate.fewshot import mean_interval
+
+    rows = []
+    for n in ns:
+        for method, recipe in recipes.items():
+            for protocol in PROTOCOLS:
+                runs = []
+                for p0, f in zip(base, features):
+                    for d in range(draws):
+                        rng = np.random.default_rng([seed, n, d])
+                        if protocol == "transductive":
+                            scored = rng.choice(len(y), n, replace=False)
+                            adapter = fit_adapter(p0[scored], None if f is None else f[scored], recipe)
+                            p = adapter.apply(p0[scored], None if f is None else f[scored])
+                        else:
+                            scored, p = np.arange(len(y)), np.empty(len(y))
+                            for g in np.unique(fold):
+                                pick = rng.choice(np.flatnonzero(fold != g), n, replace=False)
+                                test = fold == g
+                                adapter = fit_adapter(p0[pick], None if f is None else f[pick], recipe)
+                                p[test] = adapter.apply(p0[test], None if f is None else f[test])
+                        truth = y[scored] == 1
+                        runs.append((float(((p >= threshold) == truth).mean()),
+                                     float(((p0[scored] >= threshold) == truth).mean())))
+                acc = np.array(runs)
+                paired, interval = mean_interval(list(acc[:, 0] - acc[:, 1]), seed)
+                rows.append({"n": n, "curve": f"{method} {protocol}", "runs": len(runs),
+                             "accuracy": float(acc[:, 0].mean()), "accuracy_std": float(acc[:, 0].std()),
+                             "unadapted": float(acc[:, 1].mean()), "paired": paired, "paired_interval": interval})
+    return rows
+
+
 def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str, ...] = UNLABELLED, folds: int = 2,
                    recipe: AdaptRecipe = AdaptRecipe(), seed: int = 0, progress: bool = True, ks: list[int] = (),
-                   draws: int = 5, groups: str = "date", biased: bool = False) -> AdaptBenchFile:
+                   draws: int = 5, groups: str = "date", biased: bool = False, ns: list[int] = ()) -> AdaptBenchFile:
     """Every unlabelled method under both protocols on the labelled photos of ``real``, for each of ``models`` (e.g.
     one per render draw), pooled; with ``ks``, the k-photo curves (:func:`kshot_curves`, ``draws`` draws of the k
     photos per model; the shooting sessions ``groups``: ``date``, ``none`` or a CSV file, see
-    :mod:`deformsim.dataset.groups`; ``biased``: each class's k photos from a different lighting);
-    written to ``out/adapt.json`` and returned."""
+    :mod:`deformsim.dataset.groups`; ``biased``: each class's k photos from a different lighting); with ``ns``, the
+    curves over n unlabelled photos (:func:`unlabelled_curves`, ``draws`` draws per model); written to
+    ``out/adapt.json`` and returned."""
     from deformsim.dataset.groups import photo_groups
     from deformsim.evaluate.fewshot import _table
     from deformsim.evaluate.paired import paired_differences
@@ -147,13 +189,17 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     if len(table) < folds * MIN_PHOTOS:
         raise UserError(f"{real} holds {len(table)} distinct photos: {folds} folds of at least {MIN_PHOTOS} needs "
                         f"{folds * MIN_PHOTOS}")
+    fold = _folds(len(table), folds, seed)
+    pool = len(table) - int(np.bincount(fold).max())  # the fewest photos an inductive fold leaves to adapt on
+    if ns and (ns[0] < MIN_PHOTOS or ns[-1] > pool):
+        raise UserError(f"--n {ns[0] if ns[0] < MIN_PHOTOS else ns[-1]}: adapting needs at least {MIN_PHOTOS} photos, "
+                        f"and {folds} folds of {len(table)} photos leave {pool} to adapt on")
     predictors = [load(m, progress) for m in models]
     for predictor in predictors:
         check_adaptable(predictor)
     paths, y = list(table["path"]), table["y"].to_numpy()
     sessions = photo_groups(paths, groups)
     threshold = predictors[0].cfg.threshold
-    fold = _folds(len(paths), folds, seed)
     base, adapted, priors, feats = [], {}, {}, []
     for predictor in predictors:
         p0, features = predictor.outputs_and_features(paths, bool(ks) or any(r.probe for r in recipes.values()))
@@ -176,10 +222,12 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
         log.info("%s: accuracy %.3f (%+.1f points, %+.1f to %+.1f)", name, rows[name]["accuracy"], 100 * acc["diff"],
                  100 * acc["low"], 100 * acc["high"])
     kshot = kshot_curves(base, feats, y, sessions, [k for k in ks if k > 0], draws, recipe, threshold, seed, sampling)
+    unlabelled = unlabelled_curves(base, feats, y, fold, list(ns), draws, recipes, threshold, seed)
     result = made(AdaptBenchFile, {
         "models": [str(m) for m in models], "real": str(real), "photos": len(paths), "folds": folds, "seed": seed,
         "recipe": asdict(recipe), "true_share": float(y.mean()), "labels": y.tolist(), "groups": groups,
         "biased": biased, "sessions": sessions, "paths": [str(p) for p in paths], "rows": rows, "kshot": kshot,
+        "unlabelled": unlabelled,
         "draws": draws, "seconds": time.perf_counter() - start})
     out.mkdir(parents=True, exist_ok=True)
     result.write(out / "adapt.json")

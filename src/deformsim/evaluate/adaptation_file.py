@@ -42,6 +42,20 @@ class KshotRow(Record):
     paired_interval: Optional[Interval] = None
 
 
+class UnlabelledRow(Record):
+    """A method under a protocol, adapted on n unlabelled photos: mean accuracy over the runs, its standard deviation,
+    the unadapted model's on the same photos, and the mean paired difference with its 95 % interval."""
+
+    n: int
+    curve: str
+    runs: int
+    accuracy: float
+    accuracy_std: float
+    unadapted: float
+    paired: float
+    paired_interval: Interval
+
+
 class AdaptBenchFile(RecordFile):
     """``bench adapt``'s ``adapt.json``: the models, the photos with their labels and sessions, and the rows."""
 
@@ -61,5 +75,6 @@ class AdaptBenchFile(RecordFile):
     paths: list[str]
     rows: dict[str, Row]
     kshot: list[KshotRow]
+    unlabelled: list[UnlabelledRow] = []  # bench adapt --n
     draws: int
     seconds: float

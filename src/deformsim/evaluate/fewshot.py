@@ -54,14 +54,15 @@ TITLES = {"synthetic": "synthetic-pretrained, adapted", "unadapted": "synthetic-
 BOOTSTRAP = 2000
 
 
-def parse_ks(text: str) -> list[int]:
-    """``"0,1,2,5"`` as sorted distinct ints of at least 0; one line naming the bad value otherwise."""
+def parse_ks(text: str, flag: str = "--k", what: str = "photos per class", low: int = 0) -> list[int]:
+    """``"0,1,2,5"`` as sorted distinct ints of at least ``low``; one line naming the bad value of ``flag`` (counts of
+    ``what``) otherwise."""
     try:
         ks = sorted({int(v) for v in text.split(",") if v.strip()})
     except ValueError:
-        raise UserError(f"--k {text!r}: expected comma-separated whole numbers, e.g. 0,1,2,5") from None
-    if not ks or ks[0] < 0:
-        raise UserError(f"--k {text!r}: expected photos per class of at least 0")
+        raise UserError(f"{flag} {text!r}: expected comma-separated whole numbers, e.g. 0,1,2,5") from None
+    if not ks or ks[0] < low:
+        raise UserError(f"{flag} {text!r}: expected {what} of at least {low}")
     return ks
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from deformsim.errors import UserError
 from deformsim.identity import digest, file_digest
 from deformsim.learn.adapt_file import AdaptFile
-from deformsim.learn.adapter import MIN_PHOTOS, NETWORKS, Adapter, AdaptRecipe, em_prior, fit_adapter
+from deformsim.learn.adapter import FEW_PHOTOS, MIN_PHOTOS, NETWORKS, Adapter, AdaptRecipe, em_prior, fit_adapter
 from deformsim.learn.stack import Choice, fit_stack
 from deformsim.log import get_logger
 from deformsim.records import made
@@ -182,6 +182,10 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
         prior = em_prior(after)
         adapted["adapted_unlabelled"] = sorted(set(ckpt.get("adapted_unlabelled", [])) | set(digests))
     else:
+        if recipe.probe and recipe.method != "stack" and len(paths) < FEW_PHOTOS:
+            log.warning("%d unlabelled photos: on fewer than %d, the probe judged photos it had not seen 2 to 21 points "
+                        "worse than the model on both measured parts, and the photos it adapted on within 2 points "
+                        "(docs/reference.md)", len(paths), FEW_PHOTOS)
         labels = np.concatenate([y, np.full(len(paths), -1)]) if known else None
         adapter, before, after, choice = fit_on(predictor, known + paths, recipe, labels,
                                                 sessions + ["unlabelled"] * len(paths))

@@ -26,6 +26,7 @@ import numpy as np
 from deformsim.errors import UserError
 
 MIN_PHOTOS = 8  # the fewest unlabelled photos whose feature statistics and prior an adapter estimates
+FEW_PHOTOS = 40  # below this, a probe judged other photos 2-21 points worse on both parts (bench adapt --n)
 UNLABELLED = ("probe", "prior", "probe+prior")  # what adapts on unlabelled photos alone
 ADAPTERS = (*UNLABELLED, "stack")  # stack: a residual on labelled photos (deformsim.learn.stack)
 NETWORKS = ("fixmatch", "adamatch", "mcc")  # the networks themselves trained on (deformsim.learn.fixmatch)
@@ -67,7 +68,7 @@ def logit(p: np.ndarray) -> np.ndarray:
 
 
 def sigmoid(z: np.ndarray) -> np.ndarray:
-    return 1.0 / (1.0 + np.exp(-np.asarray(z, dtype=np.float64)))
+    return 1.0 / (1.0 + np.exp(-np.clip(np.asarray(z, dtype=np.float64), -700, 700)))  # exp overflows past 709
 
 
 def em_prior(p: np.ndarray, train_prior: float = 0.5, iters: int = 200, tol: float = 1e-9) -> float:
