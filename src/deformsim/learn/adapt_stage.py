@@ -135,17 +135,18 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
                 groups: str = "date", data: Path | None = None, variant: str | None = None) -> Adapted:
     """Adapt ``model`` to the unlabelled ``photos`` and the ``labelled`` ones (either may be ``None``; shooting
     sessions by ``groups``, :mod:`deformsim.dataset.groups`) and save it into ``out`` (``model.pt``, ``adapt.json``).
-    The methods that self-train the networks (``fixmatch``, ``adamatch``: :mod:`deformsim.learn.fixmatch`) take
+    The methods that train the networks (``fixmatch``, ``adamatch``, ``mcc``: :mod:`deformsim.learn.fixmatch`) take
     unlabelled photos alone and mix in the renders of ``data`` (its ``variant``, default the one the model was
     trained on).
 
     Refused with one line before any work: see :func:`unlabelled_photos` and :func:`labelled_photos`; a model that
     is not a label classifier or is adapted already; ``out`` refused as ``deformsim train`` refuses it, or holding
-    the model or the photos; a self-training method without ``data`` or ``photos``, or with ``labelled``.
+    the model or the photos; a method that trains the networks without ``data`` or ``photos``, or with ``labelled``.
     """
     from deformsim.dataset.groups import photo_groups
     from deformsim.learn import checkpoint
     from deformsim.learn.predict import Predictor
+    from deformsim.learn.stage import images_digest
     from deformsim.outputs import check_apart, check_folder_target, check_outside, claim, replacing
 
     start = time.perf_counter()
@@ -172,15 +173,11 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
     identity = {"settings": {"adapt": asdict(recipe), "groups": digest(sessions)},
                 "inputs": {"model": file_digest(path), "photos": digest(digests),
                            "labelled": digest([f"{d} {int(v)}" for d, v in zip(known_digests, y)]),
-                           **({"renders": digest(sorted(file_digest(p) for p in renders["path"]))} if networks else {})}}
+                           **({"renders": images_digest(renders, data)} if networks else {})}}
     claim(out, "model", identity, overwrite)
     if networks:
-        from deformsim.learn.fixmatch import MatchRecipe, self_trained
-
-        adapted = self_trained(ckpt, path, paths, renders, MatchRecipe(steps=recipe.steps, method=recipe.method), progress)
-        before, after = predictor.predict_outputs(paths), Predictor(adapted, path, progress).predict_outputs(paths)
+        adapted, before, after = _trained(predictor, ckpt, paths, digests, renders, recipe, progress)
         prior = em_prior(after)
-        adapted["adapted_unlabelled"] = sorted(set(ckpt.get("adapted_unlabelled", [])) | set(digests))
     else:
         if recipe.probe and recipe.method != "stack" and len(paths) < FEW_PHOTOS:
             log.warning("%d unlabelled photos: on fewer than %d, the probe judged photos it had not seen 2 to 21 points "
@@ -206,8 +203,22 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
     return result
 
 
+def _trained(predictor, ckpt: dict, paths: list[str], digests: list[str], renders, recipe: AdaptRecipe,
+             progress: bool) -> tuple[dict, np.ndarray, np.ndarray]:
+    """The saved model ``ckpt`` (``predictor`` of it) with its networks trained on the unlabelled ``paths``
+    (:mod:`deformsim.learn.fixmatch`) beside the ``renders``, recording their ``digests``; the photos' P(deformed)
+    before and after."""
+    from deformsim.learn.fixmatch import MatchRecipe, self_trained
+    from deformsim.learn.predict import Predictor
+
+    adapted = self_trained(ckpt, predictor.path, paths, renders, MatchRecipe(steps=recipe.steps, method=recipe.method),
+                           progress)
+    adapted["adapted_unlabelled"] = sorted(set(ckpt.get("adapted_unlabelled", [])) | set(digests))
+    return adapted, predictor.predict_outputs(paths), Predictor(adapted, predictor.path, progress).predict_outputs(paths)
+
+
 def _renders(data: Path, variant: str | None, path: Path, cfg):
-    """The renders a self-training method mixes in: ``data``'s ``variant`` (a generated dataset; or a folder of images
+    """The renders a method that trains the networks mixes in: ``data``'s ``variant`` (a generated dataset; or a folder of images
     in intact/ and deformed/), default the variant the model in ``path`` was trained on (its folder's
     ``inputs.json``), else the config's first."""
     from deformsim.dataset.layout import Layout

@@ -176,8 +176,8 @@ def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
 def self_trained(ckpt: dict, path: Path, photos: list[str], renders, recipe: MatchRecipe,
                  progress: bool = False) -> dict:
     """The saved model ``ckpt`` (read from ``path``) with each of its networks (every ensemble member of every
-    backbone, member k seeded ``recipe.seed + k``) self-trained on ``photos`` beside the ``renders`` (a table of
-    path and y); what it records besides is kept."""
+    backbone, member k seeded ``recipe.seed + k``) trained on ``photos`` beside the ``renders`` (a table of path and
+    y); its history, split and labelled photos kept (the caller records the unlabelled ones)."""
     from deformsim.learn import checkpoint
     from deformsim.learn.device import pick_device
     from deformsim.learn.features import cached_stem
@@ -201,6 +201,5 @@ def self_trained(ckpt: dict, path: Path, photos: list[str], renders, recipe: Mat
                      "photos' pseudo-labels counted (threshold %.3f at the end)", net.backbone, k, trace[0]["loss"],
                      trace[-1]["loss"], 100 * sum(t["mask"] for t in late) / len(late), trace[-1]["threshold"])
     mixture = [(m, c, e.get("weights", "")) for (m, c), e in zip(nets[1:], ckpt.get("mixture", []))]
-    tuned = checkpoint.contents(nets[0][0], cfg, ckpt.get("weights", ""), ckpt.get("history", []),
-                                ckpt.get("split", {}), adapted_on=ckpt.get("adapted_on"), mixture=mixture)
-    return tuned | {k: ckpt[k] for k in ("adapted_unlabelled",) if k in ckpt}
+    return checkpoint.contents(nets[0][0], cfg, ckpt.get("weights", ""), ckpt.get("history", []),
+                               ckpt.get("split", {}), adapted_on=ckpt.get("adapted_on"), mixture=mixture)
