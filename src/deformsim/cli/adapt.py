@@ -14,7 +14,7 @@ METHOD_HELP = ("probe: a logistic probe on the photos' frozen features, self-tra
                "plus a residual fitted on the --labelled photos where their cross-validation says it helps; "
                "fixmatch, adamatch, mcc: the networks trained on the photos' strong views beside the renders of "
                "--data (pseudo-labels past FreeMatch's or AdaMatch's thresholds, or minimum class confusion) "
-               "[default: stack with --labelled, else probe]")
+               "(default: stack with --labelled, else probe)")
 
 
 def adapt(
@@ -30,7 +30,7 @@ def adapt(
     data: Optional[Path] = typer.Option(None, "--data", help="fixmatch, adamatch, mcc: the dataset the model was trained "
                                         "on (its renders are mixed in)"),
     variant: Optional[str] = typer.Option(None, "--variant", help="fixmatch, adamatch, mcc: the variant of --data "
-                                          "[default: the one the model was trained on]", show_default=False),
+                                          "(default: the one the model was trained on)", show_default=False),
     steps: int = typer.Option(200, "--steps", help="fixmatch, adamatch, mcc: training steps of each network"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace a model in --out made with other settings"),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
