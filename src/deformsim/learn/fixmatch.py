@@ -37,10 +37,10 @@ from deformsim.schema import MAX_SEED, shown
 log = get_logger(__name__)
 
 
-
 @dataclass(frozen=True)
 class MatchRecipe:
-    """How a model self-trains on unlabelled photos: steps, learning rate, batch sizes, views, the EMA's momentum."""
+    """How the networks train on unlabelled photos beside the renders: the method, steps, learning rate, batch sizes,
+    views, the photos' loss weight and each method's own setting."""
 
     steps: int = 200
     lr: float = 1e-4
