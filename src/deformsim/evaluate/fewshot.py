@@ -222,8 +222,9 @@ class _Bench:
         from deformsim.learn import checkpoint
         from deformsim.learn.device import pick_device, set_threads
         from deformsim.learn.features import cached_stem
-        from deformsim.learn.finetune import part_inputs, photo_views
+        from deformsim.learn.finetune import part_inputs
         from deformsim.learn.models import build
+        from deformsim.learn.views import photo_views
 
         cfg, ckpt = inputs.cfg, inputs.ckpt
         set_threads()

@@ -83,31 +83,6 @@ def check_unseen(model: str | Path, paths: Iterable[str | Path]) -> None:
                     shared, len(digests))
 
 
-def photo_views(model: DeformNet, paths: list[str], size: int, views: int, seed: int, batch_size: int,
-                progress: bool = False, crop: str = "none", augment=None) -> torch.Tensor:
-    """Stem activations (1 + views, N, C, H, W) of each photo as the model's test-time ``crop`` shows it: its plain
-    image (cached), then views augmented by ``augment`` (default :func:`deformsim.learn.data.augmenter`; drawn from
-    torch's RNG seeded by ``seed``, the caller's RNG left as it was)."""
-    from deformsim.learn.data import ImageSet, augmenter
-    from deformsim.learn.features import cached_stem, pass_size
-
-    out = [cached_stem(model, paths, size, batch_size, progress, crop)]
-    if views:
-        images = ImageSet(paths, size, crop=crop)
-        plain = [images[i] for i in range(len(paths))]
-        augment = augment or augmenter(size)
-        was_training = model.training
-        model.eval()
-        with torch.random.fork_rng(devices=[]), torch.inference_mode():
-            torch.manual_seed(seed)
-            for _ in range(views):
-                x = torch.stack([augment(im) for im in plain])
-                out.append(torch.cat([model.stem(b.to(model.mean.device)).cpu()
-                                      for b in x.split(pass_size(model, size, batch_size))]))
-        model.train(was_training)
-    return torch.stack(out)
-
-
 @torch.no_grad()
 def part_inputs(model: DeformNet, stems: torch.Tensor, part: str, batch_size: int) -> torch.Tensor:
     """What the training part reads: the stem activations (``tail``), or their pooled features through the frozen
@@ -129,8 +104,9 @@ def part_logits(model: DeformNet, x: torch.Tensor, part: str) -> torch.Tensor:
 
 def adapt(model: DeformNet, photos: torch.Tensor, y: torch.Tensor, recipe: Recipe,
           synthetic: tuple[torch.Tensor, torch.Tensor] | None = None) -> list[float]:
-    """Train ``model`` in place on ``photos`` (:func:`part_inputs` of :func:`photo_views`: views x N x ...) with labels
-    ``y`` (N,), each batch mixed with as many of the ``synthetic`` (inputs, labels); the loss of each step."""
+    """Train ``model`` in place on ``photos`` (:func:`part_inputs` of :func:`deformsim.learn.views.photo_views`:
+    views x N x ...) with labels ``y`` (N,), each batch mixed with as many of the ``synthetic`` (inputs, labels); the
+    loss of each step."""
     if model.target != "label":
         raise UserError(f"fine-tuning needs a model of train.target label, not {model.target}")
     device = model.mean.device
@@ -191,6 +167,7 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     from deformsim.learn.device import pick_device, set_threads
     from deformsim.learn.features import cached_stem
     from deformsim.learn.stage import images_digest
+    from deformsim.learn.views import photo_views
     from deformsim.outputs import check_apart, check_folder_target, check_outside, claim, replacing
 
     start = time.perf_counter()

@@ -181,8 +181,8 @@ def self_trained(ckpt: dict, path: Path, photos: list[str], renders, recipe: Mat
     from deformsim.learn import checkpoint
     from deformsim.learn.device import pick_device
     from deformsim.learn.features import cached_stem
-    from deformsim.learn.finetune import photo_views
     from deformsim.learn.models import members
+    from deformsim.learn.views import photo_views
 
     cfg = checkpoint.saved_config(ckpt, path)
     device = pick_device(cfg.device)
