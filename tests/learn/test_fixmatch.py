@@ -71,9 +71,9 @@ def test_what_self_training_cannot_take_is_one_line_before_any_work(trained, blo
     root, _ = photos
     flat = unlabelled[1]
     fixmatch = AdaptRecipe(method="fixmatch", steps=20)
-    cases = [(dict(photos=flat, recipe=fixmatch), "--data"),
-             (dict(photos=flat, recipe=fixmatch, data=renders_of(blobs), labelled=root), "without --labelled"),
-             (dict(photos=None, recipe=fixmatch, data=renders_of(blobs), labelled=root), "--photos"),
+    cases = [(dict(photos=flat, recipe=fixmatch), "^adapt method fixmatch needs --data: "),
+             (dict(photos=flat, recipe=fixmatch, data=renders_of(blobs), labelled=root), "takes no --labelled"),
+             (dict(photos=None, recipe=fixmatch, data=renders_of(blobs)), "needs photos"),
              (dict(photos=flat, recipe=AdaptRecipe(), data=renders_of(blobs)), "go with the methods fixmatch, adamatch, mcc"),
              (dict(photos=flat, recipe=fixmatch, data=renders_of(blobs), variant="backgrounds"), "generated dataset")]
     for kwargs, message in cases:

@@ -154,8 +154,9 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
         raise UserError("adapt needs photos: --photos (unlabelled), --labelled, or both")
     networks = recipe.method in NETWORKS
     if networks and (photos is None or labelled is not None or data is None):
-        raise UserError(f"adapt method {recipe.method} learns from unlabelled photos (--photos) beside the renders "
-                        "the model was trained on (--data), without --labelled")
+        wrong = "takes no --labelled" if labelled is not None else f"needs {'--photos' if photos is None else '--data'}"
+        raise UserError(f"adapt method {recipe.method} {wrong}: it learns from unlabelled photos (--photos) beside the "
+                        "renders the model was trained on (--data), without --labelled")
     if not networks and (data is not None or variant is not None):
         raise UserError(f"--data and --variant go with the methods {', '.join(NETWORKS)}, not {recipe.method}")
     out = check_folder_target(out, "--out")
