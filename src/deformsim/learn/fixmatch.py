@@ -149,8 +149,10 @@ def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
             u = torch.randint(weak.shape[0], (recipe.batch_size * recipe.ratio,), generator=order)
             v = torch.randint(strong.shape[0], (len(u),), generator=order)
             model.eval()
-            with torch.no_grad():
-                p_s, p = torch.sigmoid(model.tail(torch.cat([x_s[s], weak[u]]).to(device))).cpu().split([len(s), len(u)])
+            if recipe.method != "mcc":  # the pseudo-labels' pass; MCC has none
+                with torch.no_grad():
+                    p_s, p = torch.sigmoid(model.tail(torch.cat([x_s[s], weak[u]]).to(device))).cpu().split(
+                        [len(s), len(u)])
             if recipe.method == "adamatch":
                 p, mask, weight, level = adamatch(p_s, p, recipe.relative, step / recipe.steps)
             elif recipe.method == "fixmatch":
