@@ -43,6 +43,13 @@ def _folds(n: int, folds: int, seed: int) -> np.ndarray:
     return np.random.default_rng(seed).permutation(n) % folds
 
 
+def _fit_apply(p0: np.ndarray, features: np.ndarray | None, recipe: AdaptRecipe, rows: np.ndarray,
+               scored: np.ndarray) -> tuple[np.ndarray, float]:
+    """The adapter fitted on the photos ``rows``: its probabilities of the photos ``scored``, and its prior."""
+    adapter = fit_adapter(p0[rows], None if features is None else features[rows], recipe)
+    return adapter.apply(p0[scored], None if features is None else features[scored]), adapter.prior
+
+
 def _adapted(p0: np.ndarray, features: np.ndarray | None, fold: np.ndarray, recipe: AdaptRecipe,
              protocol: str) -> tuple[np.ndarray, list[float]]:
     """The photos' adapted probabilities under ``protocol`` and the priors estimated on the way."""
@@ -51,10 +58,8 @@ def _adapted(p0: np.ndarray, features: np.ndarray | None, fold: np.ndarray, reci
         return adapter.apply(p0, features), [adapter.prior]
     p, priors = np.empty(len(p0)), []
     for f in np.unique(fold):
-        test, train = fold == f, fold != f
-        adapter = fit_adapter(p0[train], None if features is None else features[train], recipe)
-        p[test] = adapter.apply(p0[test], None if features is None else features[test])
-        priors.append(adapter.prior)
+        p[fold == f], prior = _fit_apply(p0, features, recipe, fold != f, fold == f)
+        priors.append(prior)
     return p, priors
 
 
@@ -134,15 +139,12 @@ def unlabelled_curves(base: list[np.ndarray], features: list[np.ndarray | None],
                         rng = np.random.default_rng([seed, n, d])
                         if protocol == "transductive":
                             scored = rng.choice(len(y), n, replace=False)
-                            adapter = fit_adapter(p0[scored], None if f is None else f[scored], recipe)
-                            p = adapter.apply(p0[scored], None if f is None else f[scored])
+                            p = _fit_apply(p0, f, recipe, scored, scored)[0]
                         else:
                             scored, p = np.arange(len(y)), np.empty(len(y))
                             for g in np.unique(fold):
                                 pick = rng.choice(np.flatnonzero(fold != g), n, replace=False)
-                                test = fold == g
-                                adapter = fit_adapter(p0[pick], None if f is None else f[pick], recipe)
-                                p[test] = adapter.apply(p0[test], None if f is None else f[test])
+                                p[fold == g] = _fit_apply(p0, f, recipe, pick, fold == g)[0]
                         truth = y[scored] == 1
                         runs.append((float(((p >= threshold) == truth).mean()),
                                      float(((p0[scored] >= threshold) == truth).mean())))
