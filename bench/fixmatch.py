@@ -45,31 +45,29 @@ def main() -> None:
     args = ap.parse_args()
     import numpy as np
 
-    from deformsim.dataset.real import real_table
     from deformsim.errors import UserError
+    from deformsim.evaluate.adaptation import _adapted, _folds
+    from deformsim.evaluate.fewshot import _table
     from deformsim.evaluate.paired import METRICS, paired_differences
-    from deformsim.identity import file_digest
-    from deformsim.learn.adapter import fit_adapter
+    from deformsim.learn.adapter import AdaptRecipe
     from deformsim.learn.fixmatch import MatchRecipe
     from deformsim.learn.predict import load
 
     if len(args.models) != len(args.data):
         raise UserError(f"--data needs one dataset per model ({len(args.models)}), got {len(args.data)}")
     recipe = MatchRecipe(steps=args.steps, weight=args.weight, method=args.method)
-    photos = real_table(args.real)
-    order = np.argsort([file_digest(p) for p in photos["path"]], kind="stable")
-    paths, y = [list(photos["path"])[i] for i in order], photos["y"].to_numpy()[order]
-    fold = np.random.default_rng(0).permutation(len(paths)) % 2
+    photos = _table(args.real).sort_values("digest")  # bench adapt's photos, order and folds
+    paths, y = list(photos["path"]), photos["y"].to_numpy()
+    fold = _folds(len(paths), 2, 0)
     probs = {"unadapted": [], "probe": [], args.method: []}
     report = {"recipe": asdict(recipe), "models": [str(m) for m in args.models], "real": str(args.real)}
     start = time.perf_counter()
     for model, data in zip(args.models, args.data):
         predictor = load(model, progress=False)
         p0, features = predictor.outputs_and_features(paths, True)
-        probe, match = np.empty(len(y)), np.empty(len(y))
+        probe, match = _adapted(p0, features, fold, AdaptRecipe(), "inductive")[0], np.empty(len(y))
         for f in (0, 1):
             test, train = fold == f, fold != f
-            probe[test] = fit_adapter(p0[train], features[train]).apply(p0[test], features[test])
             match[test] = adapted_probs(model, data, args.variant, [paths[i] for i in np.flatnonzero(train)],
                                         [paths[i] for i in np.flatnonzero(test)], recipe)
         for name, p in (("unadapted", p0), ("probe", probe), (args.method, match)):
