@@ -137,3 +137,20 @@ def test_an_adapted_model_is_refused_rather_than_losing_its_adapter(trained, pho
     with pytest.raises(UserError, match=r"is adapted already: fine-tune the model it was made from$"):
         finetune(adapted, photos[0], tmp_path / "again", FAST, progress=False)
     assert not (tmp_path / "again").exists()
+
+
+def test_finetune_mixes_in_the_variant_the_model_was_trained_on(tiny_dataset, photos, tmp_path):
+    """--data without --variant: the renders of the variant the model learnt (as deformsim adapt reads them)."""
+    import json
+
+    from deformsim.config import TrainConfig
+    from deformsim.learn.stage import train_model
+
+    cfg = TrainConfig(weights="offline", image_size=32, epochs=1, batch_size=4)
+    model = train_model(tiny_dataset, cfg, tmp_path / "m", variant="green", progress=False).model_path
+    root, _ = photos
+    finetune(model, root, tmp_path / "ft", FAST, data=tiny_dataset, progress=False)
+    finetune(model, root, tmp_path / "ft-green", FAST, data=tiny_dataset, variant="green", progress=False)
+    finetune(model, root, tmp_path / "ft-black", FAST, data=tiny_dataset, variant="black", progress=False)
+    losses = {p: json.loads((tmp_path / p / "finetune.json").read_text())["losses"] for p in ("ft", "ft-green", "ft-black")}
+    assert losses["ft"] == losses["ft-green"] != losses["ft-black"]

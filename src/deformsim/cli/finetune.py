@@ -18,8 +18,8 @@ def finetune(
     data: Optional[Path] = typer.Option(None, "--data", help="generated dataset whose images are mixed into every "
                                         "batch so the model keeps what it learnt (with --variant)"),
     variant: Optional[str] = typer.Option(None, "--variant", autocompletion=variant_choices,
-                                          help="image variant of --data (default: the first of "
-                                          "the model's train.variants)"),
+                                          help="image variant of --data (default: the one the "
+                                          "model was trained on)"),
     part: str = typer.Option("tail", "--part", autocompletion=completes("head", "tail"), help="what trains: head, or "
                              "tail (the head and the backbone layers that training trained)"),
     steps: int = typer.Option(100, "--steps", help="optimiser steps"),

@@ -161,7 +161,7 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
         raise UserError(f"--data and --variant go with the methods {', '.join(NETWORKS)}, not {recipe.method}")
     out = check_folder_target(out, "--out")
     ckpt, path = checkpoint.read_checkpoint(model)
-    renders = _renders(data, variant, path, checkpoint.saved_config(ckpt, path)) if networks else None
+    renders = model_renders(data, variant, path, checkpoint.saved_config(ckpt, path)) if networks else None
     known, y, known_digests = labelled_photos(labelled) if labelled is not None else ([], np.zeros(0, int), [])
     paths, digests = unlabelled_photos(photos) if photos is not None else ([], [])
     paths, digests = not_labelled(paths, digests, known_digests)
@@ -218,8 +218,8 @@ def _trained(predictor, ckpt: dict, paths: list[str], digests: list[str], render
     return adapted, predictor.predict_outputs(paths), Predictor(adapted, predictor.path, progress).predict_outputs(paths)
 
 
-def _renders(data: Path, variant: str | None, path: Path, cfg):
-    """The renders a method that trains the networks mixes in: ``data``'s ``variant`` (a generated dataset; or a folder of images
+def model_renders(data: Path, variant: str | None, path: Path, cfg):
+    """The renders a method that trains the networks (or fine-tuning) mixes in: ``data``'s ``variant`` (a generated dataset; or a folder of images
     in intact/ and deformed/), default the variant the model in ``path`` was trained on (its folder's
     ``inputs.json``), else the config's first."""
     from deformsim.dataset.layout import Layout

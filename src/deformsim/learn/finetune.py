@@ -161,9 +161,9 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     the model or the photos, or lies inside the photos).
     """
     from deformsim.dataset.real import real_table
-    from deformsim.dataset.tables import check_table, load_table
+    from deformsim.dataset.tables import check_table
     from deformsim.learn import checkpoint
-    from deformsim.learn.adapt_stage import unlabelled_photos
+    from deformsim.learn.adapt_stage import model_renders, unlabelled_photos
     from deformsim.learn.device import pick_device, set_threads
     from deformsim.learn.features import cached_stem
     from deformsim.learn.stage import images_digest
@@ -180,7 +180,7 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     check_table(photos, f"--real {real}")
     if variant is not None and data is None:
         raise UserError(f"--variant {variant} needs --data (the synthetic images to mix in)")
-    synthetic = load_table(data, variant, cfg.variants[0]) if data is not None else None
+    synthetic = model_renders(data, variant, path, cfg) if data is not None else None
     if ckpt.get("adapter") is not None:  # fine-tuning keeps the networks, not an adapter fitted to their old outputs
         raise UserError(f"{path} is adapted already: fine-tune the model it was made from")
     extra, extra_digests = unlabelled_photos(unlabelled, "--unlabelled") if unlabelled is not None else ([], [])
