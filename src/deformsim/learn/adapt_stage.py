@@ -219,9 +219,9 @@ def _trained(predictor, ckpt: dict, paths: list[str], digests: list[str], render
 
 
 def model_renders(data: Path, variant: str | None, path: Path, cfg):
-    """The renders a method that trains the networks (or fine-tuning) mixes in: ``data``'s ``variant`` (a generated dataset; or a folder of images
-    in intact/ and deformed/), default the variant the model in ``path`` was trained on (its folder's
-    ``inputs.json``), else the config's first."""
+    """The renders a method that trains the networks (or fine-tuning) mixes in: ``data``'s ``variant`` (a generated
+    dataset; or a folder of images in intact/ and deformed/), default the variant the model in ``path`` was trained on
+    (its folder's ``inputs.json``), else the config's first."""
     from deformsim.dataset.layout import Layout
     from deformsim.dataset.tables import load_table
     from deformsim.outputs import read_inputs
