@@ -618,8 +618,9 @@ class TrainConfig(_Model):
     )
     seed: Seed = Field(0, description="seed of the split, the initialisation and the batch order")
     device: Literal["auto", "cpu", "cuda"] = Field("auto", description="auto = cuda when available")
-    finetune: Literal["last_conv", "last_block"] = Field(
-        "last_conv", description="trainable part of the backbone: its last convolution (the paper) or last block"
+    finetune: Literal["last_conv", "last_block", "none"] = Field(
+        "last_conv", description="trainable part of the backbone: its last convolution (the paper), last block, or "
+        "none (the head alone learns, on the whole frozen network's cached features)"
     )
     head: Literal["mlp", "linear"] = Field("mlp", description="mlp: the paper's 3 layers; linear: a linear probe")
     pool: Literal["avg", "max", "avgmax"] = Field(

@@ -42,6 +42,24 @@ def test_model_layout():
     assert p.shape == (2,) and ((p > 0) & (p < 1)).all()
 
 
+def test_head_only_model_learns_on_the_whole_frozen_network(blobs, tmp_path):
+    """train.finetune none: the whole backbone is cached once and only the head learns (the fast option)."""
+    from deformsim.learn.gradcam import gradcam
+
+    cfg = CFG.model_copy(update={"finetune": "none"})
+    model, _ = build(cfg)
+    assert model.cut == len(model.features)
+    head = {n for n, _ in model.head.named_parameters(prefix="head")}
+    assert {n for n, p in model.named_parameters() if p.requires_grad} == head
+    result = fit(blobs, cfg, tmp_path / "m", progress=False)
+    assert result.history[-1]["val_acc"] >= 0.75  # chance is 0.5
+    net = load(tmp_path / "m").model
+    stems = net.stem(torch.rand(3, 3, 64, 64))
+    assert stems.shape == (3, 512, 2, 2)  # VGG-16's pooled last map at 64 px: nothing left to run but the head
+    cams = gradcam(net, stems)
+    assert cams.shape == (3, 2, 2) and np.isfinite(cams).all() and cams.max() <= 1
+
+
 def test_mobilenet_model_trains_last_block_only():
     model, desc = build(TrainConfig(backbone="mobilenet_v2", weights="offline", image_size=64))
     assert "mobilenet_v2-b0353104.pth" in desc

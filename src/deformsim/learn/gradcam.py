@@ -1,6 +1,7 @@
 """Grad-CAM (Selvaraju et al.): where in an image the evidence for "deformed" lies, for the report.
 
-The map is taken at the last spatial activation of the trainable backbone layers (before a final max pool):
+The map is taken at the last spatial activation of the trainable backbone layers (before a final max pool; the
+frozen network's output when only the head trains):
 each channel weighted by the mean gradient of the logit over it, summed, rectified and scaled to [0, 1].
 """
 
@@ -22,7 +23,7 @@ def gradcam(model: DeformNet | Ensemble, stems: torch.Tensor) -> np.ndarray:
 def _gradcam(model: DeformNet, stems: torch.Tensor) -> np.ndarray:
     model.eval()
     layers = list(model.features[model.cut :])
-    split = len(layers) - 1 if isinstance(layers[-1], nn.MaxPool2d) else len(layers)
+    split = len(layers) - 1 if layers and isinstance(layers[-1], nn.MaxPool2d) else len(layers)
     maps = []
     for z in stems.split(16):
         with torch.enable_grad():

@@ -3,7 +3,8 @@
 ``DeformNet.forward`` takes 0-1 RGB images (N, 3, S, S), turns them grey with ``grey`` (Rec. 709 luma in all three
 channels), applies the backbone's normalisation and returns **logits** of P(deformed) (training uses BCEWithLogits);
 ``proba`` applies the sigmoid, and the ONNX export outputs probabilities. The backbone is split at ``cut``: ``stem``
-(frozen, always in eval mode, so its outputs can be cached) and ``tail`` (the last conv layer / block, trained). The
+(frozen, always in eval mode, so its outputs can be cached) and ``tail`` (the last conv layer / block, trained; with
+``finetune="none"`` the whole backbone is the stem and only the head trains). The
 head is the paper's three fully connected layers or a linear probe; with ``feature_norm`` the pooled features pass a
 BatchNorm without affine parameters, whose statistics can be re-estimated on another domain (AdaBN,
 :mod:`deformsim.learn.adapt`).
@@ -37,7 +38,7 @@ class DeformNet(nn.Module):
         self.target = target
         bb = BACKBONES[backbone]
         self.features = bb.features()
-        self.cut, stem_width = bb.cuts[finetune]
+        self.cut, stem_width = (len(self.features), bb.width) if finetune == "none" else bb.cuts[finetune]
         self.register_buffer("mean", torch.tensor(bb.mean, dtype=torch.float32).view(1, 3, 1, 1))
         self.register_buffer("std", torch.tensor(bb.std, dtype=torch.float32).view(1, 3, 1, 1))
         self.pool = GlobalPool(pool)
