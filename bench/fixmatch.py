@@ -22,13 +22,13 @@ from _util import positive_int, run_main
 
 def adapted_probs(model: Path, data: Path, variant: str, train: list[str], test: list[str], recipe):
     """P(deformed) of ``test`` by ``model`` self-trained on the photos ``train``."""
-    from deformsim.dataset.tables import load_table
     from deformsim.learn import checkpoint
+    from deformsim.learn.adapt_stage import model_renders
     from deformsim.learn.fixmatch import self_trained
     from deformsim.learn.predict import Predictor
 
     ckpt, path = checkpoint.read_checkpoint(model)
-    renders = load_table(data, variant, checkpoint.saved_config(ckpt, path).variants[0])
+    renders = model_renders(data, variant, path, checkpoint.saved_config(ckpt, path))
     return Predictor(self_trained(ckpt, path, train, renders, recipe), path, False).predict_outputs(test)
 
 

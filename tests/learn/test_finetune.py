@@ -154,3 +154,23 @@ def test_finetune_mixes_in_the_variant_the_model_was_trained_on(tiny_dataset, ph
     finetune(model, root, tmp_path / "ft-black", FAST, data=tiny_dataset, variant="black", progress=False)
     losses = {p: json.loads((tmp_path / p / "finetune.json").read_text())["losses"] for p in ("ft", "ft-green", "ft-black")}
     assert losses["ft"] == losses["ft-green"] != losses["ft-black"]
+
+
+def test_the_renders_mixed_in_leave_out_what_the_model_was_trained_not_to_see(tiny_dataset, tmp_path):
+    """train.min_region: a deformed render whose damage does not show is no deformed image for fine-tuning or
+    adapting either (its label would teach the model to call intact-looking parts deformed)."""
+    import pandas as pd
+
+    from deformsim.config import TrainConfig
+    from deformsim.dataset.layout import Layout
+    from deformsim.learn.adapt_stage import model_renders
+
+    data = tmp_path / "data"
+    shutil.copytree(tiny_dataset, data)
+    manifest = pd.read_parquet(Layout(data).manifest)
+    hidden = manifest.index[manifest["y"] == 1][0]
+    manifest.loc[hidden, "region_fraction"] = 0.01  # its dent faces away from the camera
+    manifest.to_parquet(Layout(data).manifest)
+    kept = model_renders(data, "black", tmp_path / "model.pt", TrainConfig(min_region=0.02))
+    assert sorted(kept["id"]) == sorted(manifest["id"].drop(hidden))
+    assert len(model_renders(data, "black", tmp_path / "model.pt", TrainConfig())) == len(manifest)

@@ -149,7 +149,7 @@ def fewshot(
     data: Optional[Path] = typer.Option(None, "--data", help="generated dataset whose images are mixed into the "
                                         "synthetic model's batches (with --variant)"),
     variant: Optional[str] = typer.Option(None, "--variant", autocompletion=variant_choices,
-                                         help="image variant of --data"),
+                                         help="image variant of --data (default: the one the model was trained on)"),
     biased: bool = typer.Option(False, "--biased", help=BIASED_HELP),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:

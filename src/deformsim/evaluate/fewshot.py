@@ -156,8 +156,8 @@ class _Inputs:
 def _validate(real: Path, model: Path, out: Path, ks: tuple[int, ...], draws: int, seeds: int,
               curves: tuple[str, ...], data: Path | None, variant: str | None, biased: bool = False) -> _Inputs:
     """Every input checked (one line naming the bad value otherwise), the model and the photos read."""
-    from deformsim.dataset.tables import load_table
     from deformsim.learn import checkpoint
+    from deformsim.learn.adapt_stage import model_renders
     from deformsim.learn.finetune import check_unseen
     from deformsim.outputs import check_apart, check_folder_target, check_outside
 
@@ -190,7 +190,7 @@ def _validate(real: Path, model: Path, out: Path, ks: tuple[int, ...], draws: in
                     ", ".join(map(str, capped)), cap)
     if variant is not None and data is None:
         raise UserError(f"--variant {variant} needs --data (the synthetic images to mix in)")
-    synthetic = load_table(data, variant, cfg.variants[0]) if data is not None else None
+    synthetic = model_renders(data, variant, path, cfg) if data is not None else None
     sampling = drawing(y, list(table["path"]), ks, biased, real)
     return _Inputs(real, out, ckpt, path, cfg, table, y, ks, capped, draws, seeds, synthetic, data, variant, sampling)
 

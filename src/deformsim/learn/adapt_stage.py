@@ -221,7 +221,8 @@ def _trained(predictor, ckpt: dict, paths: list[str], digests: list[str], render
 def model_renders(data: Path, variant: str | None, path: Path, cfg):
     """The renders a method that trains the networks (or fine-tuning) mixes in: ``data``'s ``variant`` (a generated
     dataset; or a folder of images in intact/ and deformed/), default the variant the model in ``path`` was trained on
-    (its folder's ``inputs.json``), else the config's first."""
+    (its folder's ``inputs.json``), else the config's first; without the deformed images whose damage the model was
+    trained not to see (``train.min_region``), whose label would be wrong."""
     from deformsim.dataset.layout import Layout
     from deformsim.dataset.tables import load_table
     from deformsim.outputs import read_inputs
@@ -230,4 +231,4 @@ def model_renders(data: Path, variant: str | None, path: Path, cfg):
         inputs = (read_inputs(path.parent) or {}).get("inputs")
         recorded = inputs.get("variant") if isinstance(inputs, dict) else None
         variant = recorded if isinstance(recorded, str) else None
-    return load_table(data, variant, cfg.variants[0])
+    return load_table(data, variant, cfg.variants[0], cfg.min_region)
