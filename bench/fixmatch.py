@@ -40,8 +40,6 @@ def main() -> None:
     ap.add_argument("--real", type=Path, required=True, help="labelled real photos (intact/ and deformed/)")
     ap.add_argument("--steps", type=positive_int, default=200, help="self-training steps per network")
     ap.add_argument("--weight", type=float, default=1.0, help="the photos' loss beside the renders'")
-    ap.add_argument("--anchor", type=float, default=0.0, help="L2-SP: alpha of the weights' squared distance from "
-                    "the model's")
     ap.add_argument("--method", default="fixmatch", help="fixmatch or adamatch (deformsim.learn.fixmatch)")
     ap.add_argument("--out", type=Path, help="write the figures as JSON here")
     args = ap.parse_args()
@@ -57,7 +55,7 @@ def main() -> None:
 
     if len(args.models) != len(args.data):
         raise UserError(f"--data needs one dataset per model ({len(args.models)}), got {len(args.data)}")
-    recipe = MatchRecipe(steps=args.steps, weight=args.weight, anchor=args.anchor, method=args.method)
+    recipe = MatchRecipe(steps=args.steps, weight=args.weight, method=args.method)
     photos = _table(args.real).sort_values("digest")  # bench adapt's photos, order and folds
     paths, y = list(photos["path"]), photos["y"].to_numpy()
     fold = _folds(len(paths), 2, 0)

@@ -48,7 +48,6 @@ class MatchRecipe:
     ratio: int = 2  # photos per step for each render (FixMatch's mu)
     views: int = 4  # strong views per photo
     weight: float = 1.0  # the photos' loss beside the renders' (FixMatch's lambda_u)
-    anchor: float = 0.0  # L2-SP (Li et al. 2018): alpha / 2 x the squared distance of the weights from the model's
     momentum: float = 0.99  # the thresholds' EMA (fixmatch)
     method: str = "fixmatch"  # fixmatch, adamatch or mcc (the module's docstring)
     relative: float = 0.9  # adamatch: the threshold is this share of the renders' mean confidence
@@ -61,9 +60,8 @@ class MatchRecipe:
                 raise UserError(f"fixmatch {name} must lie in [{low}, {high}], got {getattr(self, name)}")
         if not 0 < self.lr <= 1:
             raise UserError(f"fixmatch lr must lie in (0, 1], got {self.lr}")
-        for name in ("weight", "anchor"):
-            if not 0 <= getattr(self, name) <= 100:
-                raise UserError(f"fixmatch {name} must lie in [0, 100], got {getattr(self, name)}")
+        if not 0 <= self.weight <= 100:
+            raise UserError(f"fixmatch weight must lie in [0, 100], got {self.weight}")
         if self.method not in NETWORKS:
             raise UserError(f"the networks' adapt method must be one of {', '.join(NETWORKS)}, got {self.method!r}")
         if not 0 < self.relative <= 1:
@@ -139,9 +137,7 @@ def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
     if model.target != "label":
         raise UserError(f"self-training needs a model of train.target label, not {model.target}")
     device = model.mean.device
-    trainable = [p for p in model.parameters() if p.requires_grad]
-    start = [p.detach().clone() for p in trainable]
-    opt = adam(trainable, recipe.lr)
+    opt = adam([p for p in model.parameters() if p.requires_grad], recipe.lr)
     order = torch.Generator().manual_seed(recipe.seed)
     thresholds = Thresholds(recipe.momentum)
     x_s, y_s = renders[0], renders[1].float()
@@ -171,8 +167,6 @@ def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
                 loss_u = (nn.functional.binary_cross_entropy_with_logits(logits[len(s):], (p >= 0.5).float(),
                                                                          reduction="none") * mask).mean()
             loss = loss_s + recipe.weight * weight * loss_u
-            if recipe.anchor:
-                loss = loss + recipe.anchor / 2 * sum(((p - p0) ** 2).sum() for p, p0 in zip(trainable, start))
             opt.zero_grad()
             loss.backward()
             opt.step()
