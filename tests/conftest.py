@@ -22,6 +22,25 @@ def tiny_dataset(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.fixture
+def dent_out_of_view(tiny_dataset, tmp_path) -> tuple[Path, str]:
+    """A copy of the tiny dataset in which one deformed image's damage covers 1 % of the part it shows (as if its dent
+    faced away from the camera): the dataset and that image's id."""
+    import shutil
+
+    import pandas as pd
+
+    from deformsim.dataset.layout import Layout
+
+    data = tmp_path / "dent-out-of-view"
+    shutil.copytree(tiny_dataset, data)
+    manifest = pd.read_parquet(Layout(data).manifest)
+    hidden = manifest.index[manifest["y"] == 1][0]
+    manifest.loc[hidden, "region_fraction"] = 0.01
+    manifest.to_parquet(Layout(data).manifest)
+    return data, manifest.loc[hidden, "id"]
+
+
 def _shared(name: str) -> Path:
     """A folder of the development data beside the checkout; the test is skipped without it."""
     path = SHARED / name

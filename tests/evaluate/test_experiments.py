@@ -147,3 +147,15 @@ def test_cli_evaluate_and_report(experiments, four_samples, real_dir, tmp_path):
     rep = read_metrics(tmp_path / "rep")
     assert list(rep.variants) == ["black"] and rep.variants["black"].real is None
     assert rep.settings["epochs"] == 1
+
+
+def test_evaluate_on_renders_leaves_out_what_the_model_was_trained_not_to_see(dent_out_of_view, tmp_path):
+    """train.min_region: the synthetic test, like training, holds no deformed image whose damage does not show."""
+    from deformsim.evaluate.experiments import evaluate_model
+    from deformsim.learn.stage import train_model
+
+    data, hidden = dent_out_of_view
+    cfg = TrainConfig(weights="offline", image_size=32, epochs=1, batch_size=4, min_region=0.02)
+    model = train_model(data, cfg, tmp_path / "m", variant="black", progress=False).model_path
+    scored = evaluate_model(model, data, "black")
+    assert scored.n_images == 7 and all(hidden not in p.path for p in scored.predictions)

@@ -156,21 +156,15 @@ def test_finetune_mixes_in_the_variant_the_model_was_trained_on(tiny_dataset, ph
     assert losses["ft"] == losses["ft-green"] != losses["ft-black"]
 
 
-def test_the_renders_mixed_in_leave_out_what_the_model_was_trained_not_to_see(tiny_dataset, tmp_path):
+def test_the_renders_mixed_in_leave_out_what_the_model_was_trained_not_to_see(dent_out_of_view, tmp_path):
     """train.min_region: a deformed render whose damage does not show is no deformed image for fine-tuning or
     adapting either (its label would teach the model to call intact-looking parts deformed)."""
-    import pandas as pd
-
     from deformsim.config import TrainConfig
-    from deformsim.dataset.layout import Layout
+    from deformsim.dataset.variants import variant_table
     from deformsim.learn.adapt_stage import model_renders
 
-    data = tmp_path / "data"
-    shutil.copytree(tiny_dataset, data)
-    manifest = pd.read_parquet(Layout(data).manifest)
-    hidden = manifest.index[manifest["y"] == 1][0]
-    manifest.loc[hidden, "region_fraction"] = 0.01  # its dent faces away from the camera
-    manifest.to_parquet(Layout(data).manifest)
+    data, hidden = dent_out_of_view
+    every = set(variant_table(data, "black")["id"])
     kept = model_renders(data, "black", tmp_path / "model.pt", TrainConfig(min_region=0.02))
-    assert sorted(kept["id"]) == sorted(manifest["id"].drop(hidden))
-    assert len(model_renders(data, "black", tmp_path / "model.pt", TrainConfig())) == len(manifest)
+    assert set(kept["id"]) == every - {hidden}
+    assert set(model_renders(data, "black", tmp_path / "model.pt", TrainConfig())["id"]) == every

@@ -304,7 +304,8 @@ def evaluate_model(
     folder.
 
     A model trained on a split (its folder holds ``split.json``) is tested on that split's held-out images
-    only. ``threshold`` defaults to the model's training threshold.
+    only; the deformed images whose damage it was trained not to see (``train.min_region``) are left out.
+    ``threshold`` defaults to the model's training threshold.
     """
     from deformsim.learn import predict
     from deformsim.learn.finetune import check_unseen
@@ -320,7 +321,8 @@ def evaluate_model(
     if real_dir is not None:
         table, test = real_table(real_dir), str(real_dir)
     else:
-        table, test = variant_table(data_root, variant), f"{data_root} / {variant}"
+        test = f"{data_root} / {variant}"
+        table = drop_unseen(variant_table(data_root, variant), predictor.cfg.min_region, test)
         split_file = predictor.path.parent / "split.json"
         if split_file.is_file():
             table = table[table["id"].isin(json.loads(split_file.read_text())["test"])].reset_index(drop=True)
