@@ -40,7 +40,7 @@ def main() -> None:
     ap.add_argument("--real", type=Path, required=True, help="labelled real photos (intact/ and deformed/)")
     ap.add_argument("--steps", type=positive_int, default=200, help="self-training steps per network")
     ap.add_argument("--weight", type=float, default=1.0, help="the photos' loss beside the renders'")
-    ap.add_argument("--method", default="fixmatch", help="fixmatch or adamatch (deformsim.learn.fixmatch)")
+    ap.add_argument("--method", default="fixmatch", help="fixmatch, adamatch, mcc or cdan (deformsim.learn.fixmatch)")
     ap.add_argument("--out", type=Path, help="write the figures as JSON here")
     args = ap.parse_args()
     import numpy as np

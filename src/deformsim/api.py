@@ -171,9 +171,9 @@ class Engine:
               data: str | Path | None = None, variant: str | None = None):
         """Adapt a trained model to a folder of unlabelled photos of real parts (no label read), to ``labelled``
         ones (``intact/`` + ``deformed/``, shooting sessions by ``groups``: ``date``, ``none`` or a CSV file), or
-        both; a :class:`deformsim.learn.adapt_stage.Adapted`. The self-training methods (``fixmatch``,
-        ``adamatch``) mix in the renders of ``data`` (its ``variant``). A model of other settings or inputs in
-        ``out`` is refused unless ``overwrite``."""
+        both; a :class:`deformsim.learn.adapt_stage.Adapted`. The methods that train the networks (``fixmatch``,
+        ``adamatch``, ``mcc``, ``cdan``) mix in the renders of ``data`` (its ``variant``). A model of other settings
+        or inputs in ``out`` is refused unless ``overwrite``."""
         from deformsim.learn.adapt_stage import adapt_model
         from deformsim.learn.adapter import AdaptRecipe
 

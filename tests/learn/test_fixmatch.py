@@ -127,3 +127,13 @@ def test_class_confusion_is_lowest_for_sure_judgements_of_both_classes():
     z = torch.tensor([0.3, -0.2] * 8, requires_grad=True)
     class_confusion(z).backward()
     assert (z.grad[0] < 0) and (z.grad[1] > 0)  # minimising it pushes each photo further toward its side
+
+
+def test_cdan_reverses_the_discriminators_gradient_more_as_training_goes_on():
+    """The networks receive the domain loss's gradient reversed, scaled by a coefficient warming up from 0 to 1."""
+    from deformsim.learn.fixmatch import GradientReversal, warm_up
+
+    x = torch.ones(3, requires_grad=True)
+    (GradientReversal.apply(x, 0.5) * torch.tensor([1.0, 2.0, 3.0])).sum().backward()
+    assert x.grad.tolist() == [-0.5, -1.0, -1.5]
+    assert warm_up(0) == 0 and 0 < warm_up(0.1) < warm_up(0.5) < warm_up(1) <= 1 and warm_up(1) > 0.99

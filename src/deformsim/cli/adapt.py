@@ -12,8 +12,9 @@ from deformsim.cli.common import REAL_HELP, console, err_console, fail_cleanly, 
 METHOD_HELP = ("probe: a logistic probe on the photos' frozen features, self-trained on the model's own "
                "judgements; prior: the share of deformed parts estimated by EM; probe+prior: both; stack: the model "
                "plus a residual fitted on the --labelled photos where their cross-validation says it helps; "
-               "fixmatch, adamatch, mcc: the networks trained on the photos' strong views beside the renders of "
-               "--data (pseudo-labels past FreeMatch's or AdaMatch's thresholds, or minimum class confusion) "
+               "fixmatch, adamatch, mcc, cdan: the networks trained on the photos' strong views beside the renders of "
+               "--data (pseudo-labels past FreeMatch's or AdaMatch's thresholds, minimum class confusion, or a "
+               "conditional domain discriminator's reversed gradient) "
                "(default: stack with --labelled, else probe)")
 
 
@@ -27,11 +28,11 @@ def adapt(
     groups: str = typer.Option("date", "--groups", help="shooting sessions of the --labelled photos, kept apart by "
                                "the stack's cross-validation: date (EXIF or file name), none, or a path,group CSV file"),
     method: Optional[str] = typer.Option(None, "--method", help=METHOD_HELP, show_default=False),
-    data: Optional[Path] = typer.Option(None, "--data", help="fixmatch, adamatch, mcc: the dataset the model was trained "
-                                        "on (its renders are mixed in)"),
-    variant: Optional[str] = typer.Option(None, "--variant", help="fixmatch, adamatch, mcc: the variant of --data "
-                                          "(default: the one the model was trained on)", show_default=False),
-    steps: int = typer.Option(200, "--steps", help="fixmatch, adamatch, mcc: training steps of each network"),
+    data: Optional[Path] = typer.Option(None, "--data", help="fixmatch, adamatch, mcc, cdan: the dataset the model "
+                                        "was trained on (its renders are mixed in)"),
+    variant: Optional[str] = typer.Option(None, "--variant", help="fixmatch, adamatch, mcc, cdan: the variant of "
+                                          "--data (default: the one the model was trained on)", show_default=False),
+    steps: int = typer.Option(200, "--steps", help="fixmatch, adamatch, mcc, cdan: training steps of each network"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace a model in --out made with other settings"),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress while working."),
 ) -> None:

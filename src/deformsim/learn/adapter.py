@@ -29,7 +29,7 @@ MIN_PHOTOS = 8  # the fewest unlabelled photos whose feature statistics and prio
 FEW_PHOTOS = 40  # below this, a probe judged other photos 2-21 points worse on both parts (bench adapt --n)
 UNLABELLED = ("probe", "prior", "probe+prior")  # what adapts on unlabelled photos alone
 ADAPTERS = (*UNLABELLED, "stack")  # stack: a residual on labelled photos (deformsim.learn.stack)
-NETWORKS = ("fixmatch", "adamatch", "mcc")  # the networks themselves trained on (deformsim.learn.fixmatch)
+NETWORKS = ("fixmatch", "adamatch", "mcc", "cdan")  # the networks themselves trained on (deformsim.learn.fixmatch)
 METHODS = (*ADAPTERS, *NETWORKS)
 
 

@@ -13,6 +13,10 @@ renders' cross-entropy:
   class balance, the threshold a share of the model's mean confidence on the renders, the photos' loss warmed up.
 - ``mcc`` (Minimum Class Confusion, Jin et al. 2020): no pseudo-label; the strong views' predictions are pushed
   apart from the other class (:func:`class_confusion`).
+- ``cdan`` (Conditional Domain Adversarial Network, Long et al. 2018, as thuml's library builds it): a domain
+  discriminator (:class:`Discriminator`) learns to tell renders from photos by their pooled features conditioned on
+  the predicted class (their outer product); its gradient reaches the networks reversed (:class:`GradientReversal`),
+  warmed up over the steps, so that the features it cannot tell apart are what the networks learn.
 
 What trains is the networks' trainable part, as ``deformsim finetune`` trains it (:mod:`deformsim.learn.finetune`,
 ``part="tail"``): the stem stays frozen and each photo's views pass it once.
@@ -35,6 +39,7 @@ from deformsim.log import get_logger
 from deformsim.schema import MAX_SEED, shown
 
 log = get_logger(__name__)
+PSEUDO_LABELS = ("fixmatch", "adamatch")  # the methods that train the photos toward pseudo-labels
 
 
 @dataclass(frozen=True)
@@ -49,7 +54,7 @@ class MatchRecipe:
     views: int = 4  # strong views per photo
     weight: float = 1.0  # the photos' loss beside the renders' (FixMatch's lambda_u)
     momentum: float = 0.99  # the thresholds' EMA (fixmatch)
-    method: str = "fixmatch"  # fixmatch, adamatch or mcc (the module's docstring)
+    method: str = "fixmatch"  # fixmatch, adamatch, mcc or cdan (the module's docstring)
     relative: float = 0.9  # adamatch: the threshold is this share of the renders' mean confidence
     seed: int = 0
 
@@ -129,6 +134,38 @@ def class_confusion(logits: torch.Tensor, temperature: float = 2.5) -> torch.Ten
     return (confusion.sum() - confusion.trace()) / 2
 
 
+class GradientReversal(torch.autograd.Function):
+    """Identity forward; the gradient times ``-coefficient`` backward (Ganin and Lempitsky 2015)."""
+
+    @staticmethod
+    def forward(ctx, x: torch.Tensor, coefficient: float) -> torch.Tensor:
+        ctx.coefficient = coefficient
+        return x.view_as(x)
+
+    @staticmethod
+    def backward(ctx, grad: torch.Tensor) -> tuple:
+        return -ctx.coefficient * grad, None
+
+
+class Discriminator(nn.Sequential):
+    """CDAN's domain discriminator: the outer product of pooled features (N, width) and class probabilities (N, 2),
+    through two hidden layers, to the logit of "photo" (thuml's ``DomainDiscriminator``, narrower)."""
+
+    def __init__(self, width: int, hidden: int = 256):
+        super().__init__(nn.Linear(2 * width, hidden), nn.BatchNorm1d(hidden), nn.ReLU(),
+                         nn.Linear(hidden, hidden), nn.BatchNorm1d(hidden), nn.ReLU(), nn.Linear(hidden, 1))
+
+    def domain_logits(self, features: torch.Tensor, logits: torch.Tensor, coefficient: float) -> torch.Tensor:
+        p = torch.sigmoid(logits).detach().unsqueeze(1)
+        joint = (torch.cat([1 - p, p], 1).unsqueeze(2) * features.unsqueeze(1)).flatten(1)
+        return self(GradientReversal.apply(joint, coefficient)).squeeze(1)
+
+
+def warm_up(progress: float) -> float:
+    """The reversed gradient's coefficient, 0 at the start to 1 (thuml's warm start: 2 / (1 + exp(-10 p)) - 1)."""
+    return 2 / (1 + math.exp(-10 * progress)) - 1
+
+
 def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
                renders: tuple[torch.Tensor, torch.Tensor], recipe: MatchRecipe) -> list[dict]:
     """Train ``model``'s trainable part in place on the renders' stems and labels ``renders`` and the photos' stems:
@@ -137,19 +174,25 @@ def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
     if model.target != "label":
         raise UserError(f"self-training needs a model of train.target label, not {model.target}")
     device = model.mean.device
-    opt = adam([p for p in model.parameters() if p.requires_grad], recipe.lr)
+    opt_params = [p for p in model.parameters() if p.requires_grad]
     order = torch.Generator().manual_seed(recipe.seed)
     thresholds = Thresholds(recipe.momentum)
     x_s, y_s = renders[0], renders[1].float()
     trace = []
     with torch.random.fork_rng(devices=[]):
-        torch.manual_seed(recipe.seed)  # the head's dropout draws from here
+        torch.manual_seed(recipe.seed)  # the head's dropout and the discriminator's initial weights draw from here
+        critic = None
+        if recipe.method == "cdan":
+            with torch.no_grad():
+                width = model.pooled_raw(x_s[:1].to(device)).shape[1]
+            critic = Discriminator(width).to(device)
+        opt = adam(opt_params + ([] if critic is None else list(critic.parameters())), recipe.lr)
         for step in range(recipe.steps):
             s = torch.randint(len(y_s), (recipe.batch_size,), generator=order)
             u = torch.randint(weak.shape[0], (recipe.batch_size * recipe.ratio,), generator=order)
             v = torch.randint(strong.shape[0], (len(u),), generator=order)
             model.eval()
-            if recipe.method != "mcc":  # the pseudo-labels' pass; MCC has none
+            if recipe.method in PSEUDO_LABELS:  # the pseudo-labels' pass
                 with torch.no_grad():
                     p_s, p = torch.sigmoid(model.tail(torch.cat([x_s[s], weak[u]]).to(device))).cpu().split(
                         [len(s), len(u)])
@@ -159,10 +202,17 @@ def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
                 thresholds.update(p)
                 mask, weight, level = thresholds.mask(p), 1.0, thresholds.confidence.item()
             model.head.train()
-            logits = model.tail(torch.cat([x_s[s], strong[v, u]]).to(device)).cpu()
+            features = model.norm(model.pooled_raw(torch.cat([x_s[s], strong[v, u]]).to(device)))
+            logits = model.head(features).squeeze(1).cpu()
             loss_s = nn.functional.binary_cross_entropy_with_logits(logits[: len(s)], y_s[s])
             if recipe.method == "mcc":
                 loss_u, mask, weight, level = class_confusion(logits[len(s):]), torch.ones(len(u)), 1.0, 0.0
+            elif recipe.method == "cdan":
+                critic.train()
+                domain = critic.domain_logits(features, logits.to(device), warm_up(step / recipe.steps)).cpu()
+                photo = torch.cat([torch.zeros(len(s)), torch.ones(len(u))])
+                loss_u = nn.functional.binary_cross_entropy_with_logits(domain, photo)
+                mask, weight, level = torch.ones(len(u)), 1.0, 0.0
             else:
                 loss_u = (nn.functional.binary_cross_entropy_with_logits(logits[len(s):], (p >= 0.5).float(),
                                                                          reduction="none") * mask).mean()
@@ -199,9 +249,11 @@ def self_trained(ckpt: dict, path: Path, photos: list[str], renders, recipe: Mat
         for k, member in enumerate(members(net)):
             trace = self_train(member, views[0], views[1:], (stems, y), replace(recipe, seed=recipe.seed + k))
             late = trace[len(trace) // 2:]
-            log.info("%s member %d self-trained: loss %.3f -> %.3f; in the last half of the steps %.0f %% of the "
-                     "photos' pseudo-labels counted (threshold %.3f at the end)", net.backbone, k, trace[0]["loss"],
-                     trace[-1]["loss"], 100 * sum(t["mask"] for t in late) / len(late), trace[-1]["threshold"])
+            counted = "" if recipe.method not in PSEUDO_LABELS else (
+                f"; in the last half of the steps {100 * sum(t['mask'] for t in late) / len(late):.0f} % of the photos' "
+                f"pseudo-labels counted (threshold {trace[-1]['threshold']:.3f} at the end)")
+            log.info("%s member %d trained on the photos (%s): loss %.3f -> %.3f%s", net.backbone, k, recipe.method,
+                     trace[0]["loss"], trace[-1]["loss"], counted)
     mixture = [(m, c, e.get("weights", "")) for (m, c), e in zip(nets[1:], ckpt.get("mixture", []))]
     return checkpoint.contents(nets[0][0], cfg, ckpt.get("weights", ""), ckpt.get("history", []),
                                ckpt.get("split", {}), adapted_on=ckpt.get("adapted_on"), mixture=mixture)
