@@ -202,7 +202,7 @@ def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
                 thresholds.update(p)
                 mask, weight, level = thresholds.mask(p), 1.0, thresholds.confidence.item()
             model.head.train()
-            features = model.norm(model.pooled_raw(torch.cat([x_s[s], strong[v, u]]).to(device)))
+            features = model.embed(torch.cat([x_s[s], strong[v, u]]).to(device), "pooled")
             logits = model.head(features).squeeze(1).cpu()
             loss_s = nn.functional.binary_cross_entropy_with_logits(logits[: len(s)], y_s[s])
             if recipe.method == "mcc":
