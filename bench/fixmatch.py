@@ -23,9 +23,9 @@ from _util import positive_int, run_main
 def adapted_probs(model: Path, data: Path, variant: str, train: list[str], test: list[str], recipe):
     """P(deformed) of ``test`` by ``model`` self-trained on the photos ``train``."""
     from deformsim.learn import checkpoint
-    from deformsim.learn.adapt_stage import model_renders
     from deformsim.learn.fixmatch import self_trained
     from deformsim.learn.predict import Predictor
+    from deformsim.learn.stage import model_renders
 
     ckpt, path = checkpoint.read_checkpoint(model)
     renders = model_renders(data, variant, path, checkpoint.saved_config(ckpt, path))

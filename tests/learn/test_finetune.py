@@ -161,7 +161,7 @@ def test_the_renders_mixed_in_leave_out_what_the_model_was_trained_not_to_see(de
     adapting either (its label would teach the model to call intact-looking parts deformed)."""
     from deformsim.config import TrainConfig
     from deformsim.dataset.variants import variant_table
-    from deformsim.learn.adapt_stage import model_renders
+    from deformsim.learn.stage import model_renders
 
     data, hidden = dent_out_of_view
     every = set(variant_table(data, "black")["id"])

@@ -157,8 +157,8 @@ def _validate(real: Path, model: Path, out: Path, ks: tuple[int, ...], draws: in
               curves: tuple[str, ...], data: Path | None, variant: str | None, biased: bool = False) -> _Inputs:
     """Every input checked (one line naming the bad value otherwise), the model and the photos read."""
     from deformsim.learn import checkpoint
-    from deformsim.learn.adapt_stage import model_renders
     from deformsim.learn.finetune import check_unseen
+    from deformsim.learn.stage import model_renders
     from deformsim.outputs import check_apart, check_folder_target, check_outside
 
     bad = [c for c in curves if c not in CURVES]

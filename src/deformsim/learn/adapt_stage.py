@@ -146,7 +146,7 @@ def adapt_model(model: Path, photos: Path | None, out: Path, recipe: AdaptRecipe
     from deformsim.dataset.groups import photo_groups
     from deformsim.learn import checkpoint
     from deformsim.learn.predict import Predictor
-    from deformsim.learn.stage import images_digest
+    from deformsim.learn.stage import images_digest, model_renders
     from deformsim.outputs import check_apart, check_folder_target, check_outside, claim, replacing
 
     start = time.perf_counter()
@@ -217,18 +217,3 @@ def _trained(predictor, ckpt: dict, paths: list[str], digests: list[str], render
     adapted["adapted_unlabelled"] = sorted(set(ckpt.get("adapted_unlabelled", [])) | set(digests))
     return adapted, predictor.predict_outputs(paths), Predictor(adapted, predictor.path, progress).predict_outputs(paths)
 
-
-def model_renders(data: Path, variant: str | None, path: Path, cfg):
-    """The renders a method that trains the networks (or fine-tuning) mixes in: ``data``'s ``variant`` (a generated
-    dataset; or a folder of images in intact/ and deformed/), default the variant the model in ``path`` was trained on
-    (its folder's ``inputs.json``), else the config's first; without the deformed images whose damage the model was
-    trained not to see (``train.min_region``), whose label would be wrong."""
-    from deformsim.dataset.layout import Layout
-    from deformsim.dataset.tables import load_table
-    from deformsim.outputs import read_inputs
-
-    if variant is None and Layout(data).manifest.is_file():
-        inputs = (read_inputs(path.parent) or {}).get("inputs")
-        recorded = inputs.get("variant") if isinstance(inputs, dict) else None
-        variant = recorded if isinstance(recorded, str) else None
-    return load_table(data, variant, cfg.variants[0], cfg.min_region)

@@ -163,10 +163,10 @@ def finetune(model: Path, real: Path, out: Path, recipe: Recipe = Recipe(), data
     from deformsim.dataset.real import real_table
     from deformsim.dataset.tables import check_table
     from deformsim.learn import checkpoint
-    from deformsim.learn.adapt_stage import model_renders, unlabelled_photos
+    from deformsim.learn.adapt_stage import unlabelled_photos
     from deformsim.learn.device import pick_device, set_threads
     from deformsim.learn.features import cached_stem
-    from deformsim.learn.stage import images_digest
+    from deformsim.learn.stage import images_digest, model_renders
     from deformsim.learn.views import photo_views
     from deformsim.outputs import check_apart, check_folder_target, check_outside, claim, replacing
 

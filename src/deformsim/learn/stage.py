@@ -50,3 +50,19 @@ def train_model(data: Path, cfg: TrainConfig, out: Path, variant: str | None = N
         result = fit(table, cfg, tmp, progress=progress, adapt=adapt)
     trained = {f.name: getattr(result, f.name) for f in fields(result)}
     return TrainedModel(**{**trained, "model_path": out / MODEL_FILE}, images=len(table))
+
+
+def model_renders(data: Path, variant: str | None, path: Path, cfg):
+    """The renders that fine-tuning, or an adapt method that trains the networks, mixes in: ``data``'s ``variant`` (a
+    generated dataset; or a folder of images in intact/ and deformed/), default the variant the model in ``path`` was
+    trained on (its folder's ``inputs.json``, as :func:`train_model` wrote it), else the config's first; without the
+    deformed images whose damage the model was trained not to see (``train.min_region``), whose label would be wrong."""
+    from deformsim.dataset.layout import Layout
+    from deformsim.dataset.tables import load_table
+    from deformsim.outputs import read_inputs
+
+    if variant is None and Layout(data).manifest.is_file():
+        inputs = (read_inputs(path.parent) or {}).get("inputs")
+        recorded = inputs.get("variant") if isinstance(inputs, dict) else None
+        variant = recorded if isinstance(recorded, str) else None
+    return load_table(data, variant, cfg.variants[0], cfg.min_region)
