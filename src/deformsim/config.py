@@ -618,6 +618,11 @@ class TrainConfig(_Model):
     )
     seed: Seed = Field(0, description="seed of the split, the initialisation and the batch order")
     device: Literal["auto", "cpu", "cuda"] = Field("auto", description="auto = cuda when available")
+    precision: Literal["auto", "float32", "bfloat16"] = Field(
+        "auto", description="number format of the training steps' forward and backward passes (the weights, the "
+        "cached features and every prediction stay float32): auto = bfloat16 where the device computes it natively "
+        "(a CPU with AVX-512 BF16 or AMX, a CUDA GPU that supports it), else float32"
+    )
     finetune: Literal["last_conv", "last_block", "none"] = Field(
         "last_conv", description="trainable part of the backbone: its last convolution (the paper), last block, or "
         "none (the head alone learns, on the whole frozen network's cached features)"

@@ -29,7 +29,7 @@ from deformsim.dataset.tables import check_table, split
 from deformsim.errors import UserError
 from deformsim.learn import checkpoint
 from deformsim.learn.data import ImageSet, training_transform
-from deformsim.learn.device import adam, pick_device, set_threads
+from deformsim.learn.device import adam, pick_device, set_threads, step_autocast, step_bfloat16
 from deformsim.learn.features import cached_stem, fill, pass_size
 from deformsim.learn.models import LOGIT_EPS, DeformNet, build, members
 from deformsim.learn.train_file import TrainFile
@@ -131,7 +131,8 @@ def _step(model: DeformNet, opt, z: torch.Tensor, target: torch.Tensor, cfg: Tra
           pos_weight: torch.Tensor | None = None) -> tuple[float, int]:
     """One optimiser step (deformed images weighted by ``pos_weight``); returns the summed loss and the number of
     correct predictions."""
-    logits = model.tail(z)
+    with step_autocast(cfg.precision, z.device):
+        logits = model.tail(z).float()
     loss = nn.functional.binary_cross_entropy_with_logits(logits, target, pos_weight=pos_weight)
     opt.zero_grad()
     loss.backward()
@@ -293,6 +294,9 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
         for model, _ in built:  # every backbone's stem reads each image decoded once
             model.to(pick_device(cfg.device))
         fill([m for m, _ in built], list(table["path"]) + adapt_paths, cfg.image_size, cfg.batch_size, progress)
+    if cfg.target == "label":
+        bf16 = step_bfloat16(cfg.precision, pick_device(cfg.device))
+        log.info("training steps in %s (train.precision %s)", "bfloat16" if bf16 else "float32", cfg.precision)
     trained = []
     for c, model in zip(cfgs, built):
         if len(cfgs) > 1:
