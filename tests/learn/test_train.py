@@ -249,7 +249,7 @@ def test_epochs_are_logged_at_debug_and_each_training_in_one_info_line(blobs, tm
         verbose = capsys.readouterr().err.splitlines()
     finally:
         set_verbosity("normal")
-    summary = [line for line in normal if " INFO trained 2 epochs on " in line]
+    summary = [line for line in normal if re.search(r" INFO trained 2 epochs \((bfloat16|float32)\) on ", line)]
     assert len(summary) == 1 and "validation accuracy" in summary[0] and not any("epoch 1/2" in x for x in normal)
     epochs = [line for line in verbose if " DEBUG epoch " in line]
     assert len(epochs) == 2 and all("validation accuracy" in line for line in epochs)

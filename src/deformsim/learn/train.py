@@ -235,8 +235,11 @@ def _log_summary(history: list[dict], cfg: TrainConfig, n_train: int, n_val: int
     metric = last.get("metric", "accuracy")
     score, val = (last["acc"], last["val_acc"]) if cfg.target == "label" else (last["score"], last["val_score"])
     checked = f", validation {metric} {val:.3f} ({n_val} images)" if val is not None and n_val else ""
-    log.info("trained %d epoch%s on %d images in %.1f s: loss %.3f, %s %.3f%s", len(history),
-             "" if len(history) == 1 else "s", n_train, seconds, last["loss"], metric, score, checked)
+    steps = ""
+    if cfg.target == "label":
+        steps = " (bfloat16)" if step_bfloat16(cfg.precision, pick_device(cfg.device)) else " (float32)"
+    log.info("trained %d epoch%s%s on %d images in %.1f s: loss %.3f, %s %.3f%s", len(history),
+             "" if len(history) == 1 else "s", steps, n_train, seconds, last["loss"], metric, score, checked)
 
 
 def stalled(history: list[dict], y: torch.Tensor, cfg: TrainConfig) -> str | None:
@@ -294,9 +297,6 @@ def fit(table: pd.DataFrame, cfg: TrainConfig, out_dir: Path, progress: bool = T
         for model, _ in built:  # every backbone's stem reads each image decoded once
             model.to(pick_device(cfg.device))
         fill([m for m, _ in built], list(table["path"]) + adapt_paths, cfg.image_size, cfg.batch_size, progress)
-    if cfg.target == "label":
-        bf16 = step_bfloat16(cfg.precision, pick_device(cfg.device))
-        log.info("training steps in %s (train.precision %s)", "bfloat16" if bf16 else "float32", cfg.precision)
     trained = []
     for c, model in zip(cfgs, built):
         if len(cfgs) > 1:
