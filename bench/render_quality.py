@@ -64,6 +64,11 @@ GRID = {
     "8 spp + fast dn": {"samples": 8, **FAST_DN},
     "8 spp + fast dn + b3 + clamp": {"samples": 8, **FAST_DN, **LOW_BOUNCES, **CLAMP},
     "4 spp + fast dn + b3 + clamp": {"samples": 4, **FAST_DN, **LOW_BOUNCES, **CLAMP},
+    "world map 2048": {"world_map": 2048},
+    "world map 1024": {"world_map": 1024},
+    "world map 512": {"world_map": 512},
+    "world map 256": {"world_map": 256},
+    "world map 128": {"world_map": 128},
 }
 FULL_GRID = ("today", "today (again)", "16 spp", "adaptive 0.05", "bounces 3/2", "no caustics, clamp 1", "prefilter fast",
              "prefilter none", "guides albedo", "denoise balanced", "tile 256", "16 spp + prefilter fast",

@@ -95,6 +95,8 @@ def test_camera_framing_is_off_by_default_and_lens_takes_a_range():
         ({"render.surface": {"scale": [2, 1]}},
          "--surface {'scale': [2, 1]}: invalid render.surface.scale: scale range [2.0, 1.0] is empty (min > max)"),
         ({"render.look": "Punchy"}, "--look Punchy: render.look Punchy needs view_transform AgX (got Standard)"),
+        ({"render.world_map": 2}, "--world_map 2: render.world_map 2 is below Cycles' least map width, 4 "
+         "(0 = automatic)"),
     ],
 )
 def test_a_bad_value_inside_an_override_is_named_by_its_flag(overrides, line):

@@ -462,6 +462,11 @@ class RenderConfig(_Model):
     denoise_prefilter: Literal["none", "fast", "accurate"] = Field("accurate", description="denoising of the guides")
     denoise_quality: Literal["high", "balanced", "fast"] = Field("high", description="denoiser quality")
     tile_size: int = Field(2048, ge=8, le=8192, description="Cycles tile size in pixels")
+    world_map: Annotated[int, identity.WHEN_SET] = Field(
+        0, ge=0, le=8192, description="width of the HDRI's light importance map (its height is half), which Cycles "
+        "builds again for every scene state: a smaller map builds faster and guides light sampling more coarsely; "
+        "0 = Cycles' automatic size, the HDRI's own width"
+    )
     view_transform: Literal["Standard", "AgX", "Filmic", "Khronos PBR Neutral"] = Field(
         "Standard", description="colour view transform: Standard clips highlights at 1.0 (exact flat colours); "
         "AgX, Filmic and Khronos PBR Neutral roll bright highlights off like a camera"
@@ -475,6 +480,8 @@ class RenderConfig(_Model):
     def _look(self) -> "RenderConfig":
         if self.look == "Punchy" and self.view_transform != "AgX":
             raise ValueError(f"render.look Punchy needs view_transform AgX (got {self.view_transform})")
+        if 0 < self.world_map < 4:
+            raise ValueError(f"render.world_map {self.world_map} is below Cycles' least map width, 4 (0 = automatic)")
         return self
 
     @property

@@ -24,13 +24,16 @@ def read(cy):
              "glossy_bounces", "transmission_bounces", "transparent_max_bounces", "volume_bounces", "caustics_reflective",
              "caustics_refractive", "sample_clamp_direct", "sample_clamp_indirect", "use_denoising",
              "denoising_input_passes", "denoising_prefilter", "denoising_quality", "tile_size", "samples"]
-    return {n: round(v, 6) if isinstance(v, float) else v for n, v in ((n, getattr(cy, n)) for n in names)}
+    world = bpy.context.scene.world.cycles
+    return {n: round(v, 6) if isinstance(v, float) else v for n, v in ((n, getattr(cy, n)) for n in names)} | {
+        "world_map": [world.sampling_method, world.sample_map_resolution]}
 """
 
 CUSTOM = {"samples": 7, "adaptive": True, "adaptive_threshold": 0.05, "adaptive_min_samples": 3, "max_bounces": 9,
           "diffuse_bounces": 1, "glossy_bounces": 2, "transmission_bounces": 3, "transparent_bounces": 5, "volume_bounces": 1,
           "caustics_reflective": False, "caustics_refractive": False, "clamp_direct": 4.0, "clamp_indirect": 2.5,
-          "denoise_input": "rgb_albedo", "denoise_prefilter": "fast", "denoise_quality": "balanced", "tile_size": 64}
+          "denoise_input": "rgb_albedo", "denoise_prefilter": "fast", "denoise_quality": "balanced", "tile_size": 64,
+          "world_map": 256}
 
 
 def test_settings_reach_cycles_and_defaults_are_todays():
@@ -39,6 +42,7 @@ import json, bpy
 from deformsim.blender.cycles import configure_cycles, reset
 from deformsim.config import RenderConfig
 reset()
+bpy.context.scene.world = bpy.data.worlds.new("HDRI")
 cy = bpy.context.scene.cycles
 factory = read(cy)
 configure_cycles(bpy.context.scene, RenderConfig(device="cpu"))
@@ -55,7 +59,7 @@ print(json.dumps({{"factory": factory, "default": default, "custom": read(cy)}})
         "transparent_max_bounces": 5, "volume_bounces": 1, "caustics_reflective": False, "caustics_refractive": False,
         "sample_clamp_direct": 4.0, "sample_clamp_indirect": 2.5, "use_denoising": True,
         "denoising_input_passes": "RGB_ALBEDO", "denoising_prefilter": "FAST", "denoising_quality": "BALANCED",
-        "tile_size": 64,
+        "tile_size": 64, "world_map": ["MANUAL", 256],
     }
 
 

@@ -56,6 +56,9 @@ def configure_cycles(scene, render_cfg: RenderConfig, threads: int = 0) -> str:
     cy.seed = SEED
     cy.use_animated_seed = False
     _quality(cy, render_cfg, bool(gpu))
+    if scene.world is not None:  # the HDRI's light importance map, rebuilt whenever the world changes
+        scene.world.cycles.sampling_method = "MANUAL" if render_cfg.world_map else "AUTOMATIC"
+        scene.world.cycles.sample_map_resolution = render_cfg.world_map or 1024
     scene.render.resolution_x = scene.render.resolution_y = render_cfg.resolution
     scene.render.resolution_percentage = 100
     scene.render.film_transparent = True
