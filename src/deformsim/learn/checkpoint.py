@@ -174,9 +174,10 @@ def restore(ckpt: dict, path: Path | str = "the model") -> tuple[DeformNet, Trai
     """The saved model (of a dict that :func:`read_checkpoint` checked) in eval mode and its training config;
     ``path`` names the file in errors."""
     cfg = saved_config(ckpt, path)
-    model, _ = build(cfg, load_weights=False, outputs=len(ckpt.get("outputs") or [None]))
+    with torch.device("meta"):  # no random initialisation of weights the saved ones replace
+        model, _ = build(cfg, load_weights=False, outputs=len(ckpt.get("outputs") or [None]))
     try:
-        model.load_state_dict(ckpt["state_dict"])
+        model.load_state_dict(ckpt["state_dict"], assign=True)
     except RuntimeError as exc:  # a state dict of another head or backbone than its config says
         raise UserError(f"{path} does not match its saved config: {clip(str(exc).splitlines()[0], 160)}") from None
     return model.eval(), cfg
