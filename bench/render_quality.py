@@ -69,6 +69,7 @@ GRID = {
     "world map 512": {"world_map": 512},
     "world map 256": {"world_map": 256},
     "world map 128": {"world_map": 128},
+    "8 spp + world map 2048": {"samples": 8, "world_map": 2048},
 }
 FULL_GRID = ("today", "today (again)", "16 spp", "adaptive 0.05", "bounces 3/2", "no caustics, clamp 1", "prefilter fast",
              "prefilter none", "guides albedo", "denoise balanced", "tile 256", "16 spp + prefilter fast",
