@@ -1,6 +1,7 @@
 """Where a render worker's time goes, phase by phase, on the tin example (or any config): one worker in this process.
 
     python bench/render_phases.py [--config examples/tin/config.yaml] [--states 2] [--threads 2] [--set KEY=VALUE]
+    python bench/render_phases.py --config quick --can    # the built-in can of a preset
 
 Builds the tin mesh (examples/tin/make_tin.py) unless ``--object`` names one, sets the scene up as a ``generate``
 worker does, renders sample 0 to warm up and then ``--states`` samples, and splits their wall time into: the scene
@@ -40,6 +41,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--config", default=str(ROOT / "examples" / "tin" / "config.yaml"))
     ap.add_argument("--object", type=Path, default=None, help="mesh (default: make_tin.py's tin)")
+    ap.add_argument("--can", action="store_true", help="the config's own object and spec (the built-in can of the "
+                    "presets) instead of a mesh")
     ap.add_argument("--spec", default=str(ROOT / "examples" / "tin" / "spec.yaml"))
     ap.add_argument("--states", type=positive_int, default=2)
     ap.add_argument("--threads", type=int, default=2)
@@ -60,11 +63,12 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         mesh = args.object
-        if mesh is None:
+        if mesh is None and not args.can:
             mesh = tmp / "tin.stl"
             subprocess.run([sys.executable, str(ROOT / "examples" / "tin" / "make_tin.py"), str(mesh)], check=True,
                            capture_output=True)
-        cfg = load_config(args.config, {"object.mesh": str(mesh), "object.spec": args.spec, **parse_sets(args.sets)})
+        part = {} if args.can else {"object.mesh": str(mesh), "object.spec": args.spec}
+        cfg = load_config(args.config, {**part, **parse_sets(args.sets)})
         msg = worker_setup(cfg, Layout(tmp / "out")) | {"threads": args.threads}
         t0 = time.perf_counter()
         ctx, layout, reply = worker.setup(msg)
