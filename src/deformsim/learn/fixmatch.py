@@ -192,6 +192,7 @@ def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
             u = torch.randint(weak.shape[0], (recipe.batch_size * recipe.ratio,), generator=order)
             v = torch.randint(strong.shape[0], (len(u),), generator=order)
             model.eval()
+            mask, weight, level = torch.ones(len(u)), 1.0, 0.0  # every photo counts fully (mcc, cdan)
             if recipe.method in PSEUDO_LABELS:  # the pseudo-labels' pass
                 with torch.no_grad():
                     p_s, p = torch.sigmoid(model.tail(torch.cat([x_s[s], weak[u]]).to(device))).cpu().split(
@@ -206,13 +207,12 @@ def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
             logits = model.head(features).squeeze(1).cpu()
             loss_s = nn.functional.binary_cross_entropy_with_logits(logits[: len(s)], y_s[s])
             if recipe.method == "mcc":
-                loss_u, mask, weight, level = class_confusion(logits[len(s):]), torch.ones(len(u)), 1.0, 0.0
+                loss_u = class_confusion(logits[len(s):])
             elif recipe.method == "cdan":
                 critic.train()
                 domain = critic.domain_logits(features, logits.to(device), warm_up(step / recipe.steps)).cpu()
                 photo = torch.cat([torch.zeros(len(s)), torch.ones(len(u))])
                 loss_u = nn.functional.binary_cross_entropy_with_logits(domain, photo)
-                mask, weight, level = torch.ones(len(u)), 1.0, 0.0
             else:
                 loss_u = (nn.functional.binary_cross_entropy_with_logits(logits[len(s):], (p >= 0.5).float(),
                                                                          reduction="none") * mask).mean()
