@@ -46,8 +46,8 @@ def main() -> None:
     import numpy as np
 
     from deformsim.errors import UserError
-    from deformsim.evaluate.adaptation import _adapted, _folds
-    from deformsim.evaluate.fewshot import _table
+    from deformsim.evaluate.adaptation import adapted_probabilities, content_folds
+    from deformsim.evaluate.fewshot import unique_photos
     from deformsim.evaluate.paired import METRICS, paired_differences
     from deformsim.learn.adapter import AdaptRecipe
     from deformsim.learn.fixmatch import MatchRecipe
@@ -56,16 +56,16 @@ def main() -> None:
     if len(args.models) != len(args.data):
         raise UserError(f"--data needs one dataset per model ({len(args.models)}), got {len(args.data)}")
     recipe = MatchRecipe(steps=args.steps, weight=args.weight, method=args.method)
-    photos = _table(args.real).sort_values("digest")  # bench adapt's photos, order and folds
+    photos = unique_photos(args.real).sort_values("digest")  # bench adapt's photos, order and folds
     paths, y = list(photos["path"]), photos["y"].to_numpy()
-    fold = _folds(len(paths), 2, 0)
+    fold = content_folds(len(paths), 2, 0)
     probs = {"unadapted": [], "probe": [], args.method: []}
     report = {"recipe": asdict(recipe), "models": [str(m) for m in args.models], "real": str(args.real)}
     start = time.perf_counter()
     for model, data in zip(args.models, args.data):
         predictor = load(model, progress=False)
         p0, features = predictor.outputs_and_features(paths, True)
-        probe, match = _adapted(p0, features, fold, AdaptRecipe(), "inductive")[0], np.empty(len(y))
+        probe, match = adapted_probabilities(p0, features, fold, AdaptRecipe(), "inductive")[0], np.empty(len(y))
         for f in (0, 1):
             test, train = fold == f, fold != f
             match[test] = adapted_probs(model, data, args.variant, [paths[i] for i in np.flatnonzero(train)],

@@ -11,7 +11,7 @@ import pytest
 
 from deformsim.errors import UserError
 from deformsim.evaluate.draws import draw
-from deformsim.evaluate.fewshot import _table, parse_ks, read_results, run_fewshot
+from deformsim.evaluate.fewshot import parse_ks, read_results, run_fewshot, unique_photos
 from deformsim.evaluate.fewshot_file import FewshotFile
 from deformsim.report.fewshot_html import fewshot_section
 from tests.learn.blobs import make_blobs
@@ -83,7 +83,7 @@ def test_a_biased_fewshot_adapts_each_class_on_photos_of_another_lighting(tiny, 
     model, real = tiny
     results = run_fewshot(real, model, tmp_path / "out", (1,), draws=2, seeds=1, recipe=Recipe(**QUICK),
                           curves=("synthetic",), progress=False, biased=True)
-    table = _table(real)
+    table = unique_photos(real)
     warm = dict(zip(table["id"], warm_half(list(table["path"]))))
     label = dict(zip(table["id"], table["y"]))
     assert results.biased and len(results.runs) == 2

@@ -39,7 +39,8 @@ PROTOCOLS = ("transductive", "inductive")
 KSHOT = ("labelled probe", "probe, the rest unlabelled", "stacked")  # the k-photo curves beside the unadapted model
 
 
-def _folds(n: int, folds: int, seed: int) -> np.ndarray:
+def content_folds(n: int, folds: int, seed: int) -> np.ndarray:
+    """A fold number for each of ``n`` photos (sorted by content), drawn by ``seed``."""
     return np.random.default_rng(seed).permutation(n) % folds
 
 
@@ -50,7 +51,7 @@ def _fit_apply(p0: np.ndarray, features: np.ndarray | None, recipe: AdaptRecipe,
     return adapter.apply(p0[scored], None if features is None else features[scored]), adapter.prior
 
 
-def _adapted(p0: np.ndarray, features: np.ndarray | None, fold: np.ndarray, recipe: AdaptRecipe,
+def adapted_probabilities(p0: np.ndarray, features: np.ndarray | None, fold: np.ndarray, recipe: AdaptRecipe,
              protocol: str) -> tuple[np.ndarray, list[float]]:
     """The photos' adapted probabilities under ``protocol`` and the priors estimated on the way."""
     if protocol == "transductive":
@@ -166,7 +167,7 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     curves over n unlabelled photos (:func:`unlabelled_curves`, ``draws`` draws per model); written to
     ``out/adapt.json`` and returned."""
     from deformsim.dataset.groups import photo_groups
-    from deformsim.evaluate.fewshot import _table
+    from deformsim.evaluate.fewshot import unique_photos
     from deformsim.evaluate.paired import paired_differences
     from deformsim.learn.adapt_stage import check_adaptable
     from deformsim.learn.predict import load
@@ -181,7 +182,7 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
         raise UserError(f"--folds must lie in [2, 20], got {folds}")
     if not 1 <= draws <= 1000:
         raise UserError(f"--draws must lie in [1, 1000], got {draws}")
-    table = _table(real).sort_values("digest").reset_index(drop=True)
+    table = unique_photos(real).sort_values("digest").reset_index(drop=True)
     fewest = int(min(table["y"].sum(), (1 - table["y"]).sum()))
     if ks and max(ks) >= fewest:
         raise UserError(f"--k {max(ks)}: {real} holds {fewest} photos of its smaller class; k must leave one to score")
@@ -191,7 +192,7 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
     if len(table) < folds * MIN_PHOTOS:
         raise UserError(f"{real} holds {len(table)} distinct photos: {folds} folds of at least {MIN_PHOTOS} needs "
                         f"{folds * MIN_PHOTOS}")
-    fold = _folds(len(table), folds, seed)
+    fold = content_folds(len(table), folds, seed)
     pool = len(table) - int(np.bincount(fold).max())  # the fewest photos an inductive fold leaves to adapt on
     if ns and (ns[0] < MIN_PHOTOS or ns[-1] > pool):
         raise UserError(f"--n {ns[0] if ns[0] < MIN_PHOTOS else ns[-1]}: adapting needs at least {MIN_PHOTOS} photos, "
@@ -209,7 +210,7 @@ def run_adaptation(models: list[Path], real: Path, out: Path, methods: tuple[str
         feats.append(features)
         for method, r in recipes.items():
             for protocol in PROTOCOLS:
-                p, prior = _adapted(p0, features, fold, r, protocol)
+                p, prior = adapted_probabilities(p0, features, fold, r, protocol)
                 adapted.setdefault(f"{method} {protocol}", []).append(p)
                 priors.setdefault(f"{method} {protocol}", []).append(prior)
     rng = np.random.default_rng(seed)

@@ -67,7 +67,7 @@ def run_ceiling(real: Path, out: Path, backbones: list[str], sizes: list[int], f
                 seed: int = 0) -> CeilingFile:
     """Every backbone at every size on the labelled photos of ``real``; written to ``out/ceiling.json`` and
     returned."""
-    from deformsim.evaluate.fewshot import _table
+    from deformsim.evaluate.fewshot import unique_photos
     from deformsim.evaluate.metrics import compute_metrics
     from deformsim.learn.backbones import BACKBONES
     from deformsim.outputs import check_folder_target
@@ -81,7 +81,7 @@ def run_ceiling(real: Path, out: Path, backbones: list[str], sizes: list[int], f
         raise UserError(f"--sizes {','.join(map(str, sizes))}: each must lie in [32, 1024]")
     if not 2 <= folds <= 20:
         raise UserError(f"--folds must lie in [2, 20], got {folds}")
-    table = _table(real)
+    table = unique_photos(real)
     y = table["y"].to_numpy()
     if min(y.sum(), (1 - y).sum()) < folds:
         raise UserError(f"{real}: {folds} folds need at least {folds} photos of each class")

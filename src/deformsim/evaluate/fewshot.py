@@ -73,7 +73,7 @@ def mean_interval(values: list[float], seed: int = 0) -> tuple[float, list[float
     return float(a.mean()), [float(v) for v in np.percentile(means, [2.5, 97.5])]
 
 
-def _table(real: Path):
+def unique_photos(real: Path):
     """The folder's photos, one per content (a copy could otherwise land on both sides of a draw)."""
     from deformsim.dataset.real import real_table
     from deformsim.identity import file_digest
@@ -176,7 +176,7 @@ def _validate(real: Path, model: Path, out: Path, ks: tuple[int, ...], draws: in
         raise UserError(f"{path} is no single label classifier (train.target {cfg.target}, or an ensemble): the "
                         "few-shot benchmark needs one (train it with --set train.ensemble=1 --set "
                         "'train.ensemble_backbones=[]')")
-    table = _table(real)
+    table = unique_photos(real)
     check_unseen(path, table["path"])
     y = table["y"].to_numpy()
     cap = int(min((y == 0).sum(), (y == 1).sum())) - 1  # at least one photo of each class left to score
