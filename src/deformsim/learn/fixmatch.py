@@ -183,9 +183,7 @@ def self_train(model: DeformNet, weak: torch.Tensor, strong: torch.Tensor,
         torch.manual_seed(recipe.seed)  # the head's dropout and the discriminator's initial weights draw from here
         critic = None
         if recipe.method == "cdan":
-            with torch.no_grad():
-                width = model.pooled_raw(x_s[:1].to(device)).shape[1]
-            critic = Discriminator(width).to(device)
+            critic = Discriminator(model.width).to(device)
         opt = adam(opt_params + ([] if critic is None else list(critic.parameters())), recipe.lr)
         for step in range(recipe.steps):
             s = torch.randint(len(y_s), (recipe.batch_size,), generator=order)

@@ -42,7 +42,7 @@ class DeformNet(nn.Module):
         self.register_buffer("mean", torch.tensor(bb.mean, dtype=torch.float32).view(1, 3, 1, 1))
         self.register_buffer("std", torch.tensor(bb.std, dtype=torch.float32).view(1, 3, 1, 1))
         self.pool = GlobalPool(pool)
-        width = bb.width * POOL_WIDTH[pool]
+        self.width = width = bb.width * POOL_WIDTH[pool]  # of the pooled features (:meth:`embed`'s "pooled")
         self.norm = nn.BatchNorm1d(width, affine=False) if feature_norm else nn.Identity()
         if target == "localise":
             self.head = RegionHead(stem_width, region_size(image_size))
