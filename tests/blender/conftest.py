@@ -44,6 +44,31 @@ def worker_renders(log: Path, cfg, out: Path, params: list) -> list[dict]:
         w.close()
 
 
+def assert_same_but_colour(replies: list[list[dict]], roots: list[Path], samples: int, cameras: int,
+                           kinds: tuple[str, ...]) -> list[tuple]:
+    """Two renders of the same samples (each one's worker ``replies`` and output root): the same manifest columns (all
+    but the timings) and the same bytes of every image of ``kinds`` and of the alpha. Returns each image's two RGBA
+    arrays, for the caller's checks of the colour."""
+    import numpy as np
+    from PIL import Image
+
+    from deformsim.dataset.layout import Layout, image_id
+
+    timings = {"render_seconds", "seconds"}
+    first, second = ([{k: v for k, v in r.items() if k not in timings} for r in rs] for rs in replies)
+    assert first == second  # labels, bounding boxes, region shares, displacements
+    layouts, pairs = [Layout(r) for r in roots], []
+    for sample in range(samples):
+        for c in range(cameras):
+            iid = image_id(sample, c)
+            for kind in kinds:
+                assert layouts[0].image(kind, iid).read_bytes() == layouts[1].image(kind, iid).read_bytes(), (kind, iid)
+            a, b = (np.array(Image.open(layout.image("rgba", iid))) for layout in layouts)
+            assert np.array_equal(a[..., 3], b[..., 3]), iid
+            pairs.append((iid, a, b))
+    return pairs
+
+
 @pytest.fixture(scope="session")
 def tiny_config():
     from deformsim.config import load_config
