@@ -52,7 +52,7 @@ def _fit_apply(p0: np.ndarray, features: np.ndarray | None, recipe: AdaptRecipe,
 
 
 def adapted_probabilities(p0: np.ndarray, features: np.ndarray | None, fold: np.ndarray, recipe: AdaptRecipe,
-             protocol: str) -> tuple[np.ndarray, list[float]]:
+                          protocol: str) -> tuple[np.ndarray, list[float]]:
     """The photos' adapted probabilities under ``protocol`` and the priors estimated on the way."""
     if protocol == "transductive":
         adapter = fit_adapter(p0, features, recipe)
