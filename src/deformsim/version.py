@@ -1,3 +1,3 @@
 """The package version (a leaf module: anything may import it)."""
 
-__version__ = "0.3.3"
+__version__ = "0.3.4"

@@ -28,9 +28,10 @@ log = get_logger(__name__)
 
 
 def render_workers(cfg: Config, samples: int) -> int:
-    """Local render processes: ``generate.workers``, else 1 on a GPU, else 2 (1 on one core) up to a quarter
-    of the cores; two processes hide each other's per-render fixed costs (bench/scale.py: 1.23x on 2 cores)."""
-    return worker_count(samples, cfg.generate.workers, cores_each=4, least=2,
+    """Local render processes: ``generate.workers``, else 1 on a GPU, else one per 4 cores (at least one), each
+    with its share of the cores as Cycles threads: on 2 cores one worker of 2 threads renders the same bytes as two of
+    one, 1.22x as fast at 512 px and 1.1x at 128 px (``python bench/scale.py --config paper``)."""
+    return worker_count(samples, cfg.generate.workers, cores_each=4,
                         most=1 if cfg.render.device == "gpu" else None)
 
 
