@@ -11,7 +11,6 @@ prints each rate and their ratio; then whether the two made byte-identical RGBA 
 from __future__ import annotations
 
 import argparse
-import hashlib
 import tempfile
 import time
 from pathlib import Path
@@ -30,7 +29,9 @@ def rate(cfg, out: Path) -> float:
 
 
 def digests(out: Path) -> dict[str, str]:
-    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted((out / "images" / "rgba").glob("*.png"))}
+    from deformsim.identity import file_digest
+
+    return {p.name: file_digest(p) for p in sorted((out / "images" / "rgba").glob("*.png"))}
 
 
 def main() -> None:
